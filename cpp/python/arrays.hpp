@@ -1,0 +1,34 @@
+// Conversions between numpy arrays and cv::Mat / cv::KeyPoint for the bindings.
+// Arrays are wrapped, not copied; the caller keeps them alive while the Mat is used.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <vector>
+
+namespace liff {
+namespace python {
+
+namespace py = pybind11;
+
+/// Wraps a C-contiguous numpy light field as a stacked Mat without copying:
+/// (V, U) or (V, U, C) -> 2-D Mat; (T, S, V, U) or (T, S, V, U, C) -> 4-D Mat.
+/// Raises ValueError naming the expected shapes and dtypes.
+cv::Mat lightFieldMat(const py::array& array);
+
+/// Wraps an optional 2-D uint8 mask (None -> empty Mat). Raises ValueError.
+cv::Mat maskMat(const py::object& mask);
+
+/// (N, 7) float64 rows x, y, size, angle, response, octave, class_id <-> keypoints.
+std::vector<cv::KeyPoint> keypointsFromArray(const py::array& rows);
+py::array_t<double> keypointsToArray(const std::vector<cv::KeyPoint>& keypoints);
+
+/// Copies a 2-D CV_32F or CV_8U Mat with `cols` columns into a new numpy array.
+py::array matToArray(const cv::Mat& mat, int cols);
+
+void BindArrays(py::module_& m);
+
+}  // namespace python
+}  // namespace liff

@@ -1,0 +1,135 @@
+#include "arrays.hpp"
+
+#include <liff/liff.hpp>
+
+#include <pybind11/stl.h>
+
+#include <string>
+
+namespace liff {
+namespace python {
+
+using namespace pybind11::literals;
+
+namespace {
+
+// The detector behind the Python class; Python's liff.LiFF subclasses it and turns
+// keypoint rows into cv2.KeyPoint objects.
+struct PyLiFF {
+  cv::Ptr<LiFF> impl;
+};
+
+// Runs detection and/or description with the GIL released. `lf` and `mask` stay
+// referenced by the caller's frame while the wrapped Mats are in use.
+py::tuple run(const PyLiFF& self, const py::array& lf, const py::object& mask,
+              const py::object& keypointRows, bool wantDescriptors) {
+  const cv::Mat image = lightFieldMat(lf);
+  const cv::Mat maskImage = maskMat(mask);
+  const bool provided = !keypointRows.is_none();
+  std::vector<cv::KeyPoint> keypoints;
+  if (provided) keypoints = keypointsFromArray(keypointRows.cast<py::array>());
+  cv::Mat descriptors;
+  {
+    py::gil_scoped_release release;
+    if (wantDescriptors)
+      self.impl->detectAndCompute(image, maskImage, keypoints, descriptors, provided);
+    else
+      self.impl->detectAndCompute(image, maskImage, keypoints, cv::noArray(), false);
+  }
+  py::object desc = py::none();
+  if (wantDescriptors) desc = matToArray(descriptors, self.impl->descriptorSize());
+  return py::make_tuple(keypointsToArray(keypoints), desc);
+}
+
+}  // namespace
+
+void BindLiFF(py::module_& m) {
+  py::class_<PyLiFF> cls(m, "LiFF", R"doc(
+LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 types).
+)doc");
+  cls.def(py::init([](int nfeatures, int nOctaveLayers, double contrastThreshold,
+                      double edgeThreshold, double sigma, double firstSlope, double lastSlope,
+                      int numSlopes, int descriptorType, bool rootSift) {
+            return PyLiFF{LiFF::create(nfeatures, nOctaveLayers, contrastThreshold,
+                                       edgeThreshold, sigma, firstSlope, lastSlope, numSlopes,
+                                       descriptorType, rootSift)};
+          }),
+          "nfeatures"_a = 0, "nOctaveLayers"_a = 3, "contrastThreshold"_a = 0.04,
+          "edgeThreshold"_a = 10.0, "sigma"_a = 1.6, "firstSlope"_a = -1.0, "lastSlope"_a = 1.0,
+          "numSlopes"_a = 0, "descriptorType"_a = int(CV_32F), "rootSift"_a = false,
+          "Creates a detector; parameters as liff.LiFF.create.");
+
+#define LIFF_BIND_PARAM(Name, Type, Doc)                                                    \
+  cls.def("get" #Name, [](const PyLiFF& s) { return s.impl->get##Name(); }, "Returns " Doc); \
+  cls.def("set" #Name, [](PyLiFF& s, Type v) { s.impl->set##Name(v); }, "value"_a,            \
+          "Sets " Doc " Raises ValueError if out of range.");
+  LIFF_BIND_PARAM(NFeatures, int, "the number of best features kept (0 = all).")
+  LIFF_BIND_PARAM(NOctaveLayers, int, "the number of DoG layers per octave.")
+  LIFF_BIND_PARAM(ContrastThreshold, double, "the contrast threshold (cv::SIFT meaning).")
+  LIFF_BIND_PARAM(EdgeThreshold, double, "the edge (principal curvature ratio) threshold.")
+  LIFF_BIND_PARAM(Sigma, double, "the base octave's Gaussian sigma.")
+  LIFF_BIND_PARAM(FirstSlope, double, "the first slope of the focal stack (px per view).")
+  LIFF_BIND_PARAM(LastSlope, double, "the last slope of the focal stack (px per view).")
+  LIFF_BIND_PARAM(NumSlopes, int, "the number of slopes (0 = automatic).")
+  LIFF_BIND_PARAM(DescriptorType, int, "the descriptor type, cv2.CV_32F or cv2.CV_8U.")
+  LIFF_BIND_PARAM(RootSift, bool, "whether descriptors are RootSIFT-normalised.")
+#undef LIFF_BIND_PARAM
+
+  cls.def("slopesFor", [](const PyLiFF& s, int T, int S) { return s.impl->slopesFor(T, S); },
+          "T"_a, "S"_a,
+          "The focal-stack slopes used for a light field of T x S views (list of float).");
+  cls.def("descriptorSize", [](const PyLiFF& s) { return s.impl->descriptorSize(); },
+          "Descriptor length: 128.");
+  cls.def("descriptorType", [](const PyLiFF& s) { return s.impl->descriptorType(); },
+          "Descriptor element type: cv2.CV_32F (default) or cv2.CV_8U.");
+  cls.def("defaultNorm", [](const PyLiFF& s) { return s.impl->defaultNorm(); },
+          "Norm to match descriptors with: cv2.NORM_L2.");
+  cls.def("getDefaultName", [](const PyLiFF& s) { return std::string(s.impl->getDefaultName()); },
+          "Algorithm name: 'Feature2D.LiFF'.");
+  cls.def("empty", [](const PyLiFF& s) { return s.impl->empty(); }, "Always False.");
+  cls.def(
+      "_run", &run, "lf"_a, "mask"_a = py::none(), "keypoints"_a = py::none(),
+      "descriptors"_a = true,
+      "Core call: returns (keypoint rows (N, 7) float64, descriptors or None). Releases the GIL.");
+  cls.def(
+      "_save",
+      [](const PyLiFF& s, const std::string& path) {
+        cv::FileStorage fs(path, cv::FileStorage::WRITE);
+        if (!fs.isOpened())
+          throw py::value_error("cannot write LiFF parameters to '" + path +
+                                "'; expected a writable path ending in .yml, .yaml, .xml or "
+                                ".json");
+        s.impl->write(fs);  // at the root, as cv::Feature2D::write(fileName)
+      },
+      "path"_a, "Writes the parameters to a file with the system OpenCV's FileStorage.");
+  cls.def(
+      "_read_file",
+      [](PyLiFF& s, const std::string& path) {
+        cv::FileStorage fs(path, cv::FileStorage::READ);
+        if (!fs.isOpened())
+          throw py::value_error("cannot read LiFF parameters from '" + path +
+                                "'; expected a readable OpenCV FileStorage file "
+                                "(.yml, .yaml, .xml or .json)");
+        s.impl->read(fs.root());
+      },
+      "path"_a, "Reads parameters from a FileStorage file.");
+  cls.def(
+      "_to_string",
+      [](const PyLiFF& s) {
+        cv::FileStorage fs(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
+        s.impl->write(fs);
+        return std::string(fs.releaseAndGetString());
+      },
+      "The parameters as a YAML FileStorage document.");
+  cls.def(
+      "_from_string",
+      [](PyLiFF& s, const std::string& text) {
+        cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+        if (!fs.isOpened()) throw py::value_error("not a FileStorage document");
+        s.impl->read(fs.root());
+      },
+      "text"_a, "Reads parameters from a FileStorage document in memory.");
+}
+
+}  // namespace python
+}  // namespace liff

@@ -1,0 +1,214 @@
+#include "extrema.hpp"
+
+#include "descriptor.hpp"
+
+#include <liff/liff.hpp>
+
+#include <cfloat>
+#include <climits>
+#include <cmath>
+
+namespace liff {
+namespace detail {
+namespace {
+
+/// Keypoints closer than this to an octave image's border are not searched.
+constexpr int kImageBorder = 5;
+/// Newton steps allowed for the (x, y, scale) refinement before giving up.
+constexpr int kMaxRefineSteps = 5;
+
+// True if v beats (strictly exceeds, or for minima is strictly below) all nine
+// samples of the 3x3 patch of `dog` centred at (r, c), skipping the centre if asked.
+inline bool beats3x3(float v, bool isMax, const cv::Mat& dog, int r, int c, bool skipCentre) {
+  for (int dr = -1; dr <= 1; ++dr) {
+    const float* row = dog.ptr<float>(r + dr);
+    for (int dc = -1; dc <= 1; ++dc) {
+      if (skipCentre && dr == 0 && dc == 0) continue;
+      const float n = row[c + dc];
+      if (isMax ? !(v > n) : !(v < n)) return false;
+    }
+  }
+  return true;
+}
+
+// Whether dog(o, i) of `here` at (r, c) beats all of its 80 neighbours (26 in its
+// own slice, 27 in each adjacent slice that exists).
+bool isExtremum(const SliceNeighbourhood& slices, int o, int i, int r, int c, float v) {
+  const bool isMax = v > 0;
+  for (int di = -1; di <= 1; ++di)
+    if (!beats3x3(v, isMax, slices.here->dog(o, i + di), r, c, di == 0)) return false;
+  for (const ScaleSpace* side : {slices.below, slices.above}) {
+    if (!side) continue;
+    for (int di = -1; di <= 1; ++di)
+      if (!beats3x3(v, isMax, side->dog(o, i + di), r, c, false)) return false;
+  }
+  return true;
+}
+
+// Refined extremum in octave image coordinates.
+struct Refined {
+  int r, c, layer;     // integer sample after Newton steps
+  float xr, xc, xi;    // sub-sample offsets in [-0.5, 0.5]
+  float contrast;      // interpolated DoG value
+};
+
+// Fits a 3-D quadratic to the DoG around (r, c, layer) of one slice and moves to
+// the sample nearest its extremum, as SIFT (Lowe 2004, sec. 4):
+//   x_hat = -H^-1 g,   D(x_hat) = D + g . x_hat / 2,
+// then rejects low contrast (|D(x_hat)| * layers < contrastThreshold) and edges
+// (tr(H_xy)^2 / det(H_xy) >= (r + 1)^2 / r).
+bool refine(const ScaleSpace& space, int o, const DetectParams& params, int r, int c, int layer,
+            Refined& out) {
+  const int layers = space.layers;
+  const cv::Mat& base = space.dog(o, 0);
+  float xi = 0, xr = 0, xc = 0;
+  int step = 0;
+  for (; step < kMaxRefineSteps; ++step) {
+    const cv::Mat& img = space.dog(o, layer);
+    const cv::Mat& prev = space.dog(o, layer - 1);
+    const cv::Mat& next = space.dog(o, layer + 1);
+    const float v2 = 2.f * img.at<float>(r, c);
+    const cv::Vec3f g((img.at<float>(r, c + 1) - img.at<float>(r, c - 1)) * 0.5f,
+                      (img.at<float>(r + 1, c) - img.at<float>(r - 1, c)) * 0.5f,
+                      (next.at<float>(r, c) - prev.at<float>(r, c)) * 0.5f);
+    const float dxx = img.at<float>(r, c + 1) + img.at<float>(r, c - 1) - v2;
+    const float dyy = img.at<float>(r + 1, c) + img.at<float>(r - 1, c) - v2;
+    const float dss = next.at<float>(r, c) + prev.at<float>(r, c) - v2;
+    const float dxy = (img.at<float>(r + 1, c + 1) - img.at<float>(r + 1, c - 1) -
+                       img.at<float>(r - 1, c + 1) + img.at<float>(r - 1, c - 1)) * 0.25f;
+    const float dxs = (next.at<float>(r, c + 1) - next.at<float>(r, c - 1) -
+                       prev.at<float>(r, c + 1) + prev.at<float>(r, c - 1)) * 0.25f;
+    const float dys = (next.at<float>(r + 1, c) - next.at<float>(r - 1, c) -
+                       prev.at<float>(r + 1, c) + prev.at<float>(r - 1, c)) * 0.25f;
+    const cv::Matx33f H(dxx, dxy, dxs, dxy, dyy, dys, dxs, dys, dss);
+    const cv::Vec3f x = H.solve(g, cv::DECOMP_LU);
+    xc = -x[0];
+    xr = -x[1];
+    xi = -x[2];
+    if (std::abs(xi) < 0.5f && std::abs(xr) < 0.5f && std::abs(xc) < 0.5f) break;
+    if (!(std::abs(xi) < float(INT_MAX / 3) && std::abs(xr) < float(INT_MAX / 3) &&
+          std::abs(xc) < float(INT_MAX / 3)))
+      return false;  // singular or NaN fit
+    c += cvRound(xc);
+    r += cvRound(xr);
+    layer += cvRound(xi);
+    if (layer < 1 || layer > layers || c < kImageBorder || c >= base.cols - kImageBorder ||
+        r < kImageBorder || r >= base.rows - kImageBorder)
+      return false;
+  }
+  if (step >= kMaxRefineSteps) return false;
+
+  const cv::Mat& img = space.dog(o, layer);
+  const cv::Mat& prev = space.dog(o, layer - 1);
+  const cv::Mat& next = space.dog(o, layer + 1);
+  const cv::Vec3f g((img.at<float>(r, c + 1) - img.at<float>(r, c - 1)) * 0.5f,
+                    (img.at<float>(r + 1, c) - img.at<float>(r - 1, c)) * 0.5f,
+                    (next.at<float>(r, c) - prev.at<float>(r, c)) * 0.5f);
+  const float contrast = img.at<float>(r, c) + g.dot(cv::Vec3f(xc, xr, xi)) * 0.5f;
+  if (std::abs(contrast) * layers < params.contrastThreshold) return false;
+
+  const float v2 = 2.f * img.at<float>(r, c);
+  const float dxx = img.at<float>(r, c + 1) + img.at<float>(r, c - 1) - v2;
+  const float dyy = img.at<float>(r + 1, c) + img.at<float>(r - 1, c) - v2;
+  const float dxy = (img.at<float>(r + 1, c + 1) - img.at<float>(r + 1, c - 1) -
+                     img.at<float>(r - 1, c + 1) + img.at<float>(r - 1, c - 1)) * 0.25f;
+  const float trace = dxx + dyy, det = dxx * dyy - dxy * dxy;
+  const double edge = params.edgeThreshold;
+  if (det <= 0 || trace * trace * edge >= (edge + 1) * (edge + 1) * det) return false;
+
+  out = Refined{r, c, layer, xr, xc, xi, contrast};
+  return true;
+}
+
+// Sub-slope offset, in slope steps, of the parabola through the DoG at the refined
+// sample in slices k - 1, k, k + 1:  delta = (D- - D+) / (2 (D- - 2 D0 + D+)),
+// clamped to [-1/2, 1/2] so the keypoint stays nearest to its detection slice.
+float subSlopeOffset(const SliceNeighbourhood& slices, int o, const Refined& e) {
+  if (!slices.below || !slices.above) return 0.f;
+  const float d0 = slices.here->dog(o, e.layer).at<float>(e.r, e.c);
+  const float dm = slices.below->dog(o, e.layer).at<float>(e.r, e.c);
+  const float dp = slices.above->dog(o, e.layer).at<float>(e.r, e.c);
+  const float curvature = dm - 2.f * d0 + dp;
+  if (!(std::abs(curvature) > 1e-12f)) return 0.f;
+  const float delta = 0.5f * (dm - dp) / curvature;
+  return std::min(0.5f, std::max(-0.5f, delta));
+}
+
+}  // namespace
+
+bool unpackOctave(const cv::KeyPoint& keypoint, int octaves, int layers, int& o, int& layer) {
+  int packed = keypoint.octave & 255;
+  packed = packed < 128 ? packed : (-128 | packed);  // sign-extend the low byte
+  layer = (keypoint.octave >> 8) & 255;
+  o = packed - kFirstOctave;
+  return o >= 0 && o < octaves && layer >= 0 && layer <= layers + 2;
+}
+
+std::vector<cv::KeyPoint> findSliceKeypoints(const SliceNeighbourhood& slices,
+                                             const DetectParams& params, const cv::Mat& mask) {
+  const ScaleSpace& space = *slices.here;
+  const int layers = params.layers;
+  // Cheap pre-test on |D| before the 80-neighbour comparison (as cv::SIFT: half the
+  // final contrast threshold).
+  const float preThreshold = float(0.5 * params.contrastThreshold / layers);
+  std::vector<cv::KeyPoint> keypoints;
+  float hist[kOrientationBins];
+
+  for (int o = 0; o < space.octaves; ++o) {
+    const cv::Mat& first = space.dog(o, 0);
+    const int rows = first.rows, cols = first.cols;
+    for (int i = 1; i <= layers; ++i) {
+      const cv::Mat& dog = space.dog(o, i);
+      for (int r = kImageBorder; r < rows - kImageBorder; ++r) {
+        const float* row = dog.ptr<float>(r);
+        for (int c = kImageBorder; c < cols - kImageBorder; ++c) {
+          const float v = row[c];
+          if (!(std::abs(v) > preThreshold) || !isExtremum(slices, o, i, r, c, v)) continue;
+          Refined e;
+          if (!refine(space, o, params, r, c, i, e)) continue;
+
+          cv::KeyPoint kp;
+          kp.pt = cv::Point2f(octaveToView(e.c + e.xc, o), octaveToView(e.r + e.xr, o));
+          if (!mask.empty()) {
+            const int mx = cvRound(kp.pt.x), my = cvRound(kp.pt.y);
+            if (mx < 0 || my < 0 || mx >= mask.cols || my >= mask.rows ||
+                mask.at<uchar>(my, mx) == 0)
+              continue;
+          }
+          kp.octave = ((o + kFirstOctave) & 255) + (e.layer << 8) +
+                      (cvRound((e.xi + 0.5) * 255) << 16);
+          // Diameter: 2 sigma in view pixels.
+          const float octaveSigma = float(params.sigma * std::pow(2.0, (e.layer + e.xi) / layers));
+          kp.size = octaveSigma * std::ldexp(1.f, o + kFirstOctave) * 2.f;
+          kp.response = std::abs(e.contrast);
+          const double slope = slices.slope + subSlopeOffset(slices, o, e) * slices.slopeStep;
+          kp.class_id = slopeToClassId(slope);
+
+          // Orientations: every histogram peak within 80% of the highest.
+          const float highest = orientationHistogram(
+              space.gaussian(o, e.layer), cv::Point(e.c, e.r),
+              cvRound(kOrientationRadius * octaveSigma), kOrientationSigmaFactor * octaveSigma,
+              hist);
+          const float threshold = highest * kOrientationPeakRatio;
+          const int n = kOrientationBins;
+          for (int j = 0; j < n; ++j) {
+            const int left = j > 0 ? j - 1 : n - 1, right = j < n - 1 ? j + 1 : 0;
+            if (hist[j] > hist[left] && hist[j] > hist[right] && hist[j] >= threshold) {
+              // Parabolic peak interpolation between neighbouring bins.
+              float bin = j + 0.5f * (hist[left] - hist[right]) /
+                                  (hist[left] - 2 * hist[j] + hist[right]);
+              bin = bin < 0 ? n + bin : bin >= n ? bin - n : bin;
+              kp.angle = 360.f - (360.f / n) * bin;
+              if (std::abs(kp.angle - 360.f) < FLT_EPSILON) kp.angle = 0.f;
+              keypoints.push_back(kp);
+            }
+          }
+        }
+      }
+    }
+  }
+  return keypoints;
+}
+
+}  // namespace detail
+}  // namespace liff

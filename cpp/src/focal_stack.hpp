@@ -1,0 +1,34 @@
+// Focal stack by shift-and-sum of all views (paper eq. FocalStack), bilinear and
+// normalised by the weight of the samples that fall inside each view.
+#pragma once
+
+#include "light_field.hpp"
+
+#include <vector>
+
+namespace liff {
+namespace detail {
+
+/// The slopes linspace(first, last, n); n == 1 gives the midpoint (first + last) / 2.
+std::vector<double> slopeGrid(double first, double last, int n);
+
+/// Renders the focal slice at `slope` (pixels per view step) into `slice` (CV_32F, V x U):
+///
+///   F(x, y) = sum_{t,s} sum_taps w * L(t, s, y - slope*(t - t_c), x - slope*(s - s_c))
+///             / sum_{t,s} sum_taps w
+///
+/// where the taps are the 2x2 bilinear neighbours of the (generally fractional)
+/// sample position and only taps inside the view count, so borders do not darken.
+/// Centres: s_c = (S - 1) / 2, t_c = (T - 1) / 2 (fractional for even view counts).
+void renderFocalSlice(const LightField& lf, double slope, cv::Mat& slice);
+
+/// Blur variance (pixels^2, along x and y) that bilinear shift-and-sum adds to an
+/// in-focus point at `slope`: the 2-tap kernel [1 - f, f] has variance f (1 - f),
+/// averaged over the views' fractional shifts f. It is 0 when every shift is whole
+/// (slope 0, +-1, ...) and up to 1/4, so without care in-focus slices at fractional
+/// slopes are blurrier and detection favours whole slopes. buildScaleSpace tops
+/// every slice up to the same variance.
+cv::Vec2d interpolationVariance(int T, int S, double slope);
+
+}  // namespace detail
+}  // namespace liff

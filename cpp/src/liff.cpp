@@ -1,0 +1,421 @@
+// LiFF_Impl: parameters, persistence and the orchestration of
+// light field -> focal slices -> scale spaces -> 4-D extrema -> descriptors.
+#include <liff/liff.hpp>
+
+#include "descriptor.hpp"
+#include "extrema.hpp"
+#include "focal_stack.hpp"
+#include "light_field.hpp"
+#include "scale_space.hpp"
+
+#include <algorithm>
+#include <cfloat>
+#include <climits>
+#include <tuple>
+#include <cmath>
+#include <functional>
+#include <map>
+#include <memory>
+#include <numeric>
+
+namespace liff {
+
+double keypointSlope(const cv::KeyPoint& keypoint) { return keypoint.class_id / kSlopeScale; }
+
+int slopeToClassId(double slope) {
+  const double scaled = std::round(slope * kSlopeScale);
+  if (!(std::abs(scaled) <= double(INT_MAX)))
+    CV_Error(cv::Error::StsOutOfRange,
+             cv::format("LiFF: slope %g cannot be stored in class_id; expected |slope| < %g",
+                        slope, INT_MAX / kSlopeScale));
+  return int(scaled);
+}
+
+cv::String LiFF::getDefaultName() const { return "Feature2D.LiFF"; }
+
+namespace {
+
+using detail::LightField;
+using detail::ScaleSpace;
+
+void require(bool ok, const cv::String& message) {
+  if (!ok) CV_Error(cv::Error::StsOutOfRange, "LiFF: " + message);
+}
+
+class LiFF_Impl : public LiFF {
+ public:
+  LiFF_Impl(int nfeatures, int nOctaveLayers, double contrastThreshold, double edgeThreshold,
+            double sigma, double firstSlope, double lastSlope, int numSlopes, int descriptorType,
+            bool rootSift) {
+    setNFeatures(nfeatures);
+    setNOctaveLayers(nOctaveLayers);
+    setContrastThreshold(contrastThreshold);
+    setEdgeThreshold(edgeThreshold);
+    setSigma(sigma);
+    setFirstSlope(firstSlope);
+    setLastSlope(lastSlope);
+    setNumSlopes(numSlopes);
+    setDescriptorType(descriptorType);
+    setRootSift(rootSift);
+  }
+
+  // --- parameters -------------------------------------------------------------
+  void setNFeatures(int v) override {
+    require(v >= 0, cv::format("nfeatures = %d; expected >= 0 (0 keeps all)", v));
+    nfeatures_ = v;
+  }
+  int getNFeatures() const override { return nfeatures_; }
+  void setNOctaveLayers(int v) override {
+    require(v >= 1 && v <= 32, cv::format("nOctaveLayers = %d; expected in [1, 32]", v));
+    nOctaveLayers_ = v;
+  }
+  int getNOctaveLayers() const override { return nOctaveLayers_; }
+  void setContrastThreshold(double v) override {
+    require(std::isfinite(v) && v >= 0,
+            cv::format("contrastThreshold = %g; expected a finite value >= 0", v));
+    contrastThreshold_ = v;
+  }
+  double getContrastThreshold() const override { return contrastThreshold_; }
+  void setEdgeThreshold(double v) override {
+    require(std::isfinite(v) && v >= 1,
+            cv::format("edgeThreshold = %g; expected a finite value >= 1", v));
+    edgeThreshold_ = v;
+  }
+  double getEdgeThreshold() const override { return edgeThreshold_; }
+  void setSigma(double v) override {
+    require(std::isfinite(v) && v > 0 && v <= 100,
+            cv::format("sigma = %g; expected a value in (0, 100]", v));
+    sigma_ = v;
+  }
+  double getSigma() const override { return sigma_; }
+  void setFirstSlope(double v) override {
+    require(std::isfinite(v) && std::abs(v) <= kMaxAbsSlope,
+            cv::format("firstSlope = %g; expected a finite value in [-%g, %g]", v, kMaxAbsSlope,
+                       kMaxAbsSlope));
+    firstSlope_ = v;
+  }
+  double getFirstSlope() const override { return firstSlope_; }
+  void setLastSlope(double v) override {
+    require(std::isfinite(v) && std::abs(v) <= kMaxAbsSlope,
+            cv::format("lastSlope = %g; expected a finite value in [-%g, %g]", v, kMaxAbsSlope,
+                       kMaxAbsSlope));
+    lastSlope_ = v;
+  }
+  double getLastSlope() const override { return lastSlope_; }
+  void setNumSlopes(int v) override {
+    require(v >= 0 && v <= kMaxSlopes,
+            cv::format("numSlopes = %d; expected in [0, %d] (0 = automatic)", v, kMaxSlopes));
+    numSlopes_ = v;
+  }
+  int getNumSlopes() const override { return numSlopes_; }
+  void setDescriptorType(int v) override {
+    require(v == CV_32F || v == CV_8U,
+            cv::format("descriptorType = %d; expected CV_32F (%d) or CV_8U (%d)", v, CV_32F,
+                       CV_8U));
+    descriptorType_ = v;
+  }
+  int getDescriptorType() const override { return descriptorType_; }
+  void setRootSift(bool v) override { rootSift_ = v; }
+  bool getRootSift() const override { return rootSift_; }
+
+  std::vector<double> slopesFor(int T, int S) const override {
+    require(firstSlope_ <= lastSlope_,
+            cv::format("firstSlope = %g > lastSlope = %g; expected firstSlope <= lastSlope",
+                       firstSlope_, lastSlope_));
+    if (T == 1 && S == 1) return detail::slopeGrid(firstSlope_, lastSlope_, 1);
+    int n = numSlopes_;
+    if (n == 0) n = std::max(T, S) | 1;  // smallest odd number >= max(T, S)
+    require(n == 1 || firstSlope_ < lastSlope_,
+            cv::format("firstSlope = lastSlope = %g with numSlopes = %d; expected "
+                       "firstSlope < lastSlope, or numSlopes = 1",
+                       firstSlope_, n));
+    return detail::slopeGrid(firstSlope_, lastSlope_, n);
+  }
+
+  // --- Feature2D ----------------------------------------------------------------
+  int descriptorSize() const override { return detail::kDescriptorSize; }
+  int descriptorType() const override { return descriptorType_; }
+  int defaultNorm() const override { return cv::NORM_L2; }
+  bool empty() const override { return false; }
+  cv::String getDefaultName() const override { return LiFF::getDefaultName(); }
+
+  void write(cv::FileStorage& fs) const override {
+    writeFormat(fs);
+    fs << "name" << getDefaultName();
+    fs << "nfeatures" << nfeatures_ << "nOctaveLayers" << nOctaveLayers_;
+    fs << "contrastThreshold" << contrastThreshold_ << "edgeThreshold" << edgeThreshold_;
+    fs << "sigma" << sigma_ << "firstSlope" << firstSlope_ << "lastSlope" << lastSlope_;
+    fs << "numSlopes" << numSlopes_ << "descriptorType" << descriptorType_;
+    fs << "rootSift" << int(rootSift_);
+  }
+
+  void read(const cv::FileNode& node) override {
+    // Algorithm::save() nests the parameters under the default name; accept both.
+    cv::FileNode fn = node;
+    if (fn.isMap() && !fn[getDefaultName()].empty()) fn = fn[getDefaultName()];
+    if (!fn.isMap())
+      CV_Error(cv::Error::StsBadArg, "LiFF: read() expected a map of parameters");
+    if (!fn["name"].empty() && cv::String(fn["name"]) != getDefaultName())
+      CV_Error(cv::Error::StsBadArg, "LiFF: read() found parameters of '" +
+                                         cv::String(fn["name"]) + "'; expected '" +
+                                         getDefaultName() + "'");
+    // Validate everything on a copy before changing this object.
+    LiFF_Impl next(*this);
+    auto readInt = [&](const char* key, void (LiFF_Impl::*set)(int)) {
+      if (!fn[key].empty()) (next.*set)(int(fn[key]));
+    };
+    auto readReal = [&](const char* key, void (LiFF_Impl::*set)(double)) {
+      if (!fn[key].empty()) (next.*set)(double(fn[key]));
+    };
+    readInt("nfeatures", &LiFF_Impl::setNFeatures);
+    readInt("nOctaveLayers", &LiFF_Impl::setNOctaveLayers);
+    readReal("contrastThreshold", &LiFF_Impl::setContrastThreshold);
+    readReal("edgeThreshold", &LiFF_Impl::setEdgeThreshold);
+    readReal("sigma", &LiFF_Impl::setSigma);
+    readReal("firstSlope", &LiFF_Impl::setFirstSlope);
+    readReal("lastSlope", &LiFF_Impl::setLastSlope);
+    readInt("numSlopes", &LiFF_Impl::setNumSlopes);
+    readInt("descriptorType", &LiFF_Impl::setDescriptorType);
+    if (!fn["rootSift"].empty()) next.setRootSift(int(fn["rootSift"]) != 0);
+    *this = next;
+  }
+
+  void detectAndCompute(cv::InputArray image, cv::InputArray mask,
+                        std::vector<cv::KeyPoint>& keypoints, cv::OutputArray descriptors,
+                        bool useProvidedKeypoints) override;
+
+ private:
+  // Slopes beyond this many pixels per view step are surely a mistake.
+  static constexpr double kMaxAbsSlope = 1e4;
+  // More slopes than this is surely a mistake (each costs a full SIFT pass).
+  static constexpr int kMaxSlopes = 4096;
+
+  void describe(const std::vector<cv::KeyPoint>& keypoints, const std::vector<int>& sliceOf,
+                const std::map<int, std::shared_ptr<ScaleSpace>>& window,
+                cv::Mat& descriptors) const;
+
+  int nfeatures_ = 0, nOctaveLayers_ = 3;
+  double contrastThreshold_ = 0.04, edgeThreshold_ = 10, sigma_ = 1.6;
+  double firstSlope_ = -1, lastSlope_ = 1;
+  int numSlopes_ = 0, descriptorType_ = CV_32F;
+  bool rootSift_ = false;
+};
+
+// Index of the grid slope nearest to `slope` (the slice a keypoint is described on).
+int nearestSlice(const std::vector<double>& slopes, double slope) {
+  if (slopes.size() == 1) return 0;
+  const double step = (slopes.back() - slopes.front()) / double(slopes.size() - 1);
+  const long index = std::lround((slope - slopes.front()) / step);
+  return int(std::min<long>(long(slopes.size()) - 1, std::max<long>(0, index)));
+}
+
+// Builds the scale spaces of the listed slices in parallel (one task per slice).
+void buildSlices(const LightField& lf, const std::vector<double>& slopes,
+                 const std::vector<int>& which, int layers, double sigma, int octaves,
+                 std::map<int, std::shared_ptr<ScaleSpace>>& window) {
+  // Every slice is topped up to the largest interpolation blur of the grid.
+  cv::Vec2d target(0, 0);
+  for (double slope : slopes) {
+    const cv::Vec2d v = detail::interpolationVariance(lf.T, lf.S, slope);
+    target = cv::Vec2d(std::max(target[0], v[0]), std::max(target[1], v[1]));
+  }
+  std::vector<std::shared_ptr<ScaleSpace>> built(which.size());
+  cv::parallel_for_(cv::Range(0, int(which.size())), [&](const cv::Range& range) {
+    for (int j = range.start; j < range.end; ++j) {
+      cv::Mat slice;
+      detail::renderFocalSlice(lf, slopes[which[j]], slice);
+      const cv::Vec2d variance = detail::interpolationVariance(lf.T, lf.S, slopes[which[j]]);
+      built[j] = std::make_shared<ScaleSpace>(
+          detail::buildScaleSpace(slice, layers, sigma, octaves, variance, target));
+    }
+  });
+  for (size_t j = 0; j < which.size(); ++j) window[which[j]] = built[j];
+}
+
+// Slices processed together: enough to keep every thread busy, few enough to
+// bound memory at (batch + 2) scale spaces. Results do not depend on it.
+int sliceBatch() { return std::max(1, cv::getNumThreads()); }
+
+void LiFF_Impl::describe(const std::vector<cv::KeyPoint>& keypoints,
+                         const std::vector<int>& sliceOf,
+                         const std::map<int, std::shared_ptr<ScaleSpace>>& window,
+                         cv::Mat& descriptors) const {
+  cv::parallel_for_(cv::Range(0, int(keypoints.size())), [&](const cv::Range& range) {
+    float raw[detail::kDescriptorSize];
+    for (int k = range.start; k < range.end; ++k) {
+      const cv::KeyPoint& kp = keypoints[k];
+      const ScaleSpace& space = *window.at(sliceOf[k]);
+      int o = 0, layer = 0;
+      CV_Assert(detail::unpackOctave(kp, space.octaves, space.layers, o, layer));
+      const cv::Point2f pt(detail::viewToOctave(kp.pt.x, o), detail::viewToOctave(kp.pt.y, o));
+      // Scale in octave pixels: size is a diameter in view pixels.
+      const float scale = kp.size * 0.5f / std::ldexp(1.f, o + detail::kFirstOctave);
+      float angle = 360.f - kp.angle;
+      if (std::abs(angle - 360.f) < FLT_EPSILON) angle = 0.f;
+      detail::rawDescriptor(space.gaussian(o, layer), pt, angle, scale, raw);
+      detail::finishDescriptor(raw, rootSift_, descriptors.row(k));
+    }
+  });
+}
+
+void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
+                                 std::vector<cv::KeyPoint>& keypoints,
+                                 cv::OutputArray descriptorsOut, bool useProvidedKeypoints) {
+  const cv::Mat input = image.getMat();
+  const LightField lf = detail::toGreyLightField(input);
+  const cv::Mat mask = maskArray.getMat();
+  detail::checkMask(mask, lf.viewSize());
+  const std::vector<double> slopes = slopesFor(lf.T, lf.S);
+  const int M = int(slopes.size());
+  const double step = M > 1 ? (slopes.back() - slopes.front()) / (M - 1) : 0.0;
+  const int octaves = detail::numOctaves(lf.viewSize());
+  const bool wantDescriptors = descriptorsOut.needed();
+  const int batch = sliceBatch();
+  std::map<int, std::shared_ptr<ScaleSpace>> window;
+
+  if (useProvidedKeypoints) {
+    // Describe the given keypoints, each on the slice nearest its slope; drop those
+    // whose packed octave/layer this light field's pyramid does not have.
+    std::vector<cv::KeyPoint> kept;
+    std::vector<int> sliceOf;
+    for (const cv::KeyPoint& kp : keypoints) {
+      int o, layer;
+      if (octaves < 1 || !detail::unpackOctave(kp, octaves, nOctaveLayers_, o, layer) ||
+          !std::isfinite(kp.pt.x) || !std::isfinite(kp.pt.y) || !std::isfinite(kp.size) ||
+          !std::isfinite(kp.angle) || !(kp.size > 0))
+        continue;
+      kept.push_back(kp);
+      sliceOf.push_back(nearestSlice(slopes, keypointSlope(kp)));
+    }
+    keypoints = kept;
+    if (!wantDescriptors) return;
+    cv::Mat descriptors(int(kept.size()), detail::kDescriptorSize, descriptorType_);
+    // Build each needed scale space once, `batch` slices at a time.
+    std::vector<int> needed(sliceOf);
+    std::sort(needed.begin(), needed.end());
+    needed.erase(std::unique(needed.begin(), needed.end()), needed.end());
+    for (size_t first = 0; first < needed.size(); first += batch) {
+      const std::vector<int> slices(needed.begin() + first,
+                                    needed.begin() + std::min(needed.size(), first + batch));
+      window.clear();
+      buildSlices(lf, slopes, slices, nOctaveLayers_, sigma_, octaves, window);
+      std::vector<cv::KeyPoint> group;
+      std::vector<int> groupSlice, rows;
+      for (size_t j = 0; j < kept.size(); ++j)
+        if (window.count(sliceOf[j])) {
+          group.push_back(kept[j]);
+          groupSlice.push_back(sliceOf[j]);
+          rows.push_back(int(j));
+        }
+      cv::Mat groupDescriptors(int(group.size()), detail::kDescriptorSize, descriptorType_);
+      describe(group, groupSlice, window, groupDescriptors);
+      for (size_t j = 0; j < rows.size(); ++j)
+        groupDescriptors.row(int(j)).copyTo(descriptors.row(rows[j]));
+    }
+    descriptors.copyTo(descriptorsOut);
+    return;
+  }
+
+  // Detection: a sliding window over the slope axis holds the scale spaces of the
+  // slices being searched and their two neighbours; each batch of slices is built
+  // and searched in parallel, and results are concatenated in slice order.
+  keypoints.clear();
+  std::vector<cv::Mat> descriptorBlocks;
+  const detail::DetectParams params{nOctaveLayers_, contrastThreshold_, edgeThreshold_, sigma_};
+  for (int k0 = 0; octaves >= 1 && k0 < M; k0 += batch) {
+    const int k1 = std::min(M, k0 + batch);  // search slices [k0, k1)
+    std::vector<int> missing;
+    for (int k = std::max(0, k0 - 1); k < std::min(M, k1 + 1); ++k)
+      if (!window.count(k)) missing.push_back(k);
+    buildSlices(lf, slopes, missing, nOctaveLayers_, sigma_, octaves, window);
+
+    std::vector<std::vector<cv::KeyPoint>> found(k1 - k0);
+    std::vector<cv::Mat> blocks(k1 - k0);
+    cv::parallel_for_(cv::Range(k0, k1), [&](const cv::Range& range) {
+      for (int k = range.start; k < range.end; ++k) {
+        detail::SliceNeighbourhood slices;
+        slices.here = window.at(k).get();
+        slices.below = k > 0 ? window.at(k - 1).get() : nullptr;
+        slices.above = k + 1 < M ? window.at(k + 1).get() : nullptr;
+        slices.slope = slopes[k];
+        slices.slopeStep = step;
+        std::vector<cv::KeyPoint>& kps = found[k - k0];
+        kps = detail::findSliceKeypoints(slices, params, mask);
+        if (!wantDescriptors) continue;
+        std::vector<int> sliceOf;
+        for (const cv::KeyPoint& kp : kps) sliceOf.push_back(nearestSlice(slopes, keypointSlope(kp)));
+        blocks[k - k0].create(int(kps.size()), detail::kDescriptorSize, descriptorType_);
+        describe(kps, sliceOf, window, blocks[k - k0]);
+      }
+    });
+    for (int k = k0; k < k1; ++k) {
+      keypoints.insert(keypoints.end(), found[k - k0].begin(), found[k - k0].end());
+      if (wantDescriptors) descriptorBlocks.push_back(blocks[k - k0]);
+    }
+    // Keep only slice k1 - 1, the lower neighbour of the next batch.
+    for (auto it = window.begin(); it != window.end();)
+      it = it->first < k1 - 1 ? window.erase(it) : std::next(it);
+  }
+  window.clear();
+
+  cv::Mat descriptors;
+  if (wantDescriptors) {
+    descriptors.create(0, detail::kDescriptorSize, descriptorType_);
+    for (const cv::Mat& block : descriptorBlocks)
+      if (!block.empty()) descriptors.push_back(block);
+  }
+
+  // Sort as cv::SIFT does (x, y, size, angle; then response, octave, slope) and drop
+  // exact duplicates, which arise when two extrema refine to the same point.
+  std::vector<int> order(keypoints.size());
+  std::iota(order.begin(), order.end(), 0);
+  auto key = [&](int i) {
+    const cv::KeyPoint& k = keypoints[i];
+    return std::make_tuple(k.pt.x, k.pt.y, k.size, k.angle, -k.response, k.octave, k.class_id);
+  };
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return key(a) < key(b); });
+  std::vector<int> unique;
+  for (int i : order) {
+    const cv::KeyPoint& k = keypoints[i];
+    if (!unique.empty()) {
+      const cv::KeyPoint& p = keypoints[unique.back()];
+      if (p.pt == k.pt && p.size == k.size && p.angle == k.angle && p.class_id == k.class_id)
+        continue;
+    }
+    unique.push_back(i);
+  }
+  // nfeatures: keep the strongest responses (ties broken by the order above).
+  if (nfeatures_ > 0 && int(unique.size()) > nfeatures_) {
+    std::vector<int> byResponse = unique;
+    std::stable_sort(byResponse.begin(), byResponse.end(), [&](int a, int b) {
+      return keypoints[a].response > keypoints[b].response;
+    });
+    byResponse.resize(nfeatures_);
+    std::vector<bool> keep(keypoints.size(), false);
+    for (int i : byResponse) keep[i] = true;
+    std::vector<int> kept;
+    for (int i : unique)
+      if (keep[i]) kept.push_back(i);
+    unique.swap(kept);
+  }
+  std::vector<cv::KeyPoint> result;
+  result.reserve(unique.size());
+  for (int i : unique) result.push_back(keypoints[i]);
+  keypoints.swap(result);
+  if (wantDescriptors) {
+    cv::Mat out(int(unique.size()), detail::kDescriptorSize, descriptorType_);
+    for (size_t j = 0; j < unique.size(); ++j) descriptors.row(unique[j]).copyTo(out.row(int(j)));
+    out.copyTo(descriptorsOut);
+  }
+}
+
+}  // namespace
+
+cv::Ptr<LiFF> LiFF::create(int nfeatures, int nOctaveLayers, double contrastThreshold,
+                           double edgeThreshold, double sigma, double firstSlope, double lastSlope,
+                           int numSlopes, int descriptorType, bool rootSift) {
+  return cv::makePtr<LiFF_Impl>(nfeatures, nOctaveLayers, contrastThreshold, edgeThreshold, sigma,
+                                firstSlope, lastSlope, numSlopes, descriptorType, rootSift);
+}
+
+}  // namespace liff

@@ -1,0 +1,131 @@
+#include "light_field.hpp"
+
+#include <opencv2/imgproc.hpp>
+
+#include <string>
+
+namespace liff {
+namespace detail {
+namespace {
+
+// Largest light field dimension we accept: keeps T*S*V*U and pyramid sizes in int range.
+constexpr int kMaxSide = 1 << 20;
+
+std::string depthName(int depth) {
+  switch (depth) {
+    case CV_8U: return "uint8";
+    case CV_8S: return "int8";
+    case CV_16U: return "uint16";
+    case CV_16S: return "int16";
+    case CV_32S: return "int32";
+    case CV_32F: return "float32";
+    case CV_64F: return "float64";
+    default: return "depth " + std::to_string(depth);
+  }
+}
+
+// Scale that maps the input depth to [0, 1]: uint8 / 255, uint16 / 65535, float as given.
+double unitScale(int depth) {
+  switch (depth) {
+    case CV_8U: return 1.0 / 255.0;
+    case CV_16U: return 1.0 / 65535.0;
+    default: return 1.0;
+  }
+}
+
+}  // namespace
+
+LightField toGreyLightField(const cv::Mat& input) {
+  if (input.empty())
+    CV_Error(cv::Error::StsBadArg,
+             "LiFF: the light field is empty; expected a 4-D Mat {T, S, V, U} or a 2-D image");
+  const int dims = input.dims;
+  if (dims != 2 && dims != 4)
+    CV_Error(cv::Error::StsBadArg,
+             cv::format("LiFF: the light field has %d dimensions; expected 4 ({T, S, V, U}) "
+                        "or 2 (one view, V x U)", dims));
+  const int depth = input.depth();
+  if (depth != CV_8U && depth != CV_16U && depth != CV_32F && depth != CV_64F)
+    CV_Error(cv::Error::StsBadArg,
+             "LiFF: the light field has element type " + depthName(depth) +
+                 "; expected uint8, uint16, float32 or float64");
+  const int channels = input.channels();
+  if (channels != 1 && channels != 3)
+    CV_Error(cv::Error::StsBadArg,
+             cv::format("LiFF: the light field has %d channels; expected 1 (grey) or 3 (BGR)",
+                        channels));
+
+  LightField lf;
+  if (dims == 2) {
+    lf.T = lf.S = 1;
+    lf.V = input.rows;
+    lf.U = input.cols;
+  } else {
+    lf.T = input.size[0];
+    lf.S = input.size[1];
+    lf.V = input.size[2];
+    lf.U = input.size[3];
+  }
+  for (int n : {lf.T, lf.S, lf.V, lf.U})
+    if (n < 1 || n > kMaxSide)
+      CV_Error(cv::Error::StsBadSize,
+               cv::format("LiFF: light field sizes {T=%d, S=%d, V=%d, U=%d} are out of range; "
+                          "expected each in [1, %d]", lf.T, lf.S, lf.V, lf.U, kMaxSide));
+  const double total = double(lf.T) * lf.S * lf.V * lf.U;
+  if (total > double(INT_MAX))
+    CV_Error(cv::Error::StsBadSize,
+             cv::format("LiFF: the light field has %.0f samples; at most %d are supported",
+                        total, INT_MAX));
+
+  // View the input as (T*S*V) rows of U pixels, with its channels. A 2-D Mat may
+  // have any row step; a 4-D sub-array that is not continuous is copied first.
+  cv::Mat rows2d;
+  if (dims == 2) {
+    rows2d = input;
+  } else {
+    const cv::Mat continuous = input.isContinuous() ? input : input.clone();
+    const int rowsU[2] = {lf.T * lf.S * lf.V, lf.U};
+    rows2d = continuous.reshape(0, 2, rowsU);  // shares data and reference count
+  }
+
+  cv::Mat grey;
+  if (channels == 3) {
+    // Luminance of BGR (ITU-R BT.601, as cv::COLOR_BGR2GRAY), computed in float.
+    cv::Mat asFloat;
+    rows2d.convertTo(asFloat, CV_32F, unitScale(depth));
+    cv::cvtColor(asFloat, grey, cv::COLOR_BGR2GRAY);
+  } else if (depth == CV_32F && rows2d.isContinuous()) {
+    grey = rows2d;  // no copy: we never write to it
+  } else {
+    rows2d.convertTo(grey, CV_32F, unitScale(depth));
+  }
+  if (!grey.isContinuous()) grey = grey.clone();
+
+  if (depth == CV_32F || depth == CV_64F) {
+    cv::Point bad;
+    // For 64F input a finite value can still overflow float; check the converted data.
+    if (!cv::checkRange(grey, true, &bad))
+      CV_Error(cv::Error::StsBadArg,
+               cv::format("LiFF: the light field holds a NaN or infinite value (grey row %d, "
+                          "column %d); expected finite values, nominally in [0, 1]",
+                          bad.y, bad.x));
+  }
+  lf.views = grey;
+  return lf;
+}
+
+void checkMask(const cv::Mat& mask, cv::Size viewSize) {
+  if (mask.empty()) return;
+  if (mask.type() != CV_8UC1 || mask.dims != 2)
+    CV_Error(cv::Error::StsBadArg,
+             cv::format("LiFF: the mask has type %s with %d channel(s) and %d dimensions; "
+                        "expected a 2-D uint8 single-channel mask",
+                        depthName(mask.depth()).c_str(), mask.channels(), mask.dims));
+  if (mask.size() != viewSize)
+    CV_Error(cv::Error::StsBadSize,
+             cv::format("LiFF: the mask is %d x %d (rows x cols); expected the centre view "
+                        "size %d x %d", mask.rows, mask.cols, viewSize.height, viewSize.width));
+}
+
+}  // namespace detail
+}  // namespace liff

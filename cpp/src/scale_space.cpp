@@ -1,0 +1,66 @@
+#include "scale_space.hpp"
+
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+
+namespace liff {
+namespace detail {
+
+int numOctaves(cv::Size viewSize) {
+  const double baseMin = std::min(viewSize.width, viewSize.height) * std::ldexp(1.0, -kFirstOctave);
+  return std::max(0, cvRound(std::log2(baseMin) - 2) - kFirstOctave);
+}
+
+ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
+                           cv::Vec2d variance, cv::Vec2d targetVariance) {
+  CV_Assert(slice.type() == CV_32F && layers >= 1 && octaves >= 1);
+  ScaleSpace space;
+  space.octaves = octaves;
+  space.layers = layers;
+  space.gaussians.resize(size_t(octaves) * (layers + 3));
+  space.dogs.resize(size_t(octaves) * (layers + 2));
+
+  // Base: upsample 2x (kFirstOctave = -1), then blur from the assumed 2 * 0.5 (plus
+  // the interpolation blur every slice is topped up to) to sigma.
+  cv::Mat base;
+  const double upsample = std::ldexp(1.0, -kFirstOctave), up2 = upsample * upsample;
+  double blur[2];
+  for (int axis = 0; axis < 2; ++axis) {
+    const double present2 = kInitialSigma * kInitialSigma * up2 + up2 * targetVariance[axis];
+    const double topUp = up2 * std::max(0.0, targetVariance[axis] - variance[axis]);
+    blur[axis] = std::sqrt(std::max(sigma * sigma - present2, 0.01) + topUp);
+  }
+  cv::resize(slice, base, cv::Size(), upsample, upsample, cv::INTER_LINEAR);
+  cv::GaussianBlur(base, space.gaussians[0], cv::Size(), blur[0], blur[1]);
+
+  // Incremental blurs: sigma_i^2 = (k^i sigma)^2 - (k^(i-1) sigma)^2.
+  std::vector<double> increment(layers + 3);
+  const double k = std::pow(2.0, 1.0 / layers);
+  increment[0] = sigma;
+  for (int i = 1; i < layers + 3; ++i) {
+    const double previous = std::pow(k, double(i - 1)) * sigma, total = previous * k;
+    increment[i] = std::sqrt(total * total - previous * previous);
+  }
+
+  for (int o = 0; o < octaves; ++o) {
+    for (int i = 0; i < layers + 3; ++i) {
+      cv::Mat& dst = space.gaussians[size_t(o) * (layers + 3) + i];
+      if (o == 0 && i == 0) continue;
+      if (i == 0) {
+        // Layer `layers` of the previous octave has twice the base sigma: decimate it.
+        const cv::Mat& src = space.gaussian(o - 1, layers);
+        cv::resize(src, dst, cv::Size(src.cols / 2, src.rows / 2), 0, 0, cv::INTER_NEAREST);
+      } else {
+        cv::GaussianBlur(space.gaussian(o, i - 1), dst, cv::Size(), increment[i], increment[i]);
+      }
+    }
+    for (int i = 0; i < layers + 2; ++i)
+      cv::subtract(space.gaussian(o, i + 1), space.gaussian(o, i),
+                   space.dogs[size_t(o) * (layers + 2) + i]);
+  }
+  return space;
+}
+
+}  // namespace detail
+}  // namespace liff

@@ -1,0 +1,63 @@
+// SIFT's Gaussian and DoG scale space of one focal slice, built as cv::SIFT builds it.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <cmath>
+#include <vector>
+
+namespace liff {
+namespace detail {
+
+/// First octave: -1 = the slice is upsampled 2x before the first blur (as cv::SIFT).
+constexpr int kFirstOctave = -1;
+/// Blur assumed already present in the input image (Lowe's 0.5).
+constexpr float kInitialSigma = 0.5f;
+
+/// Number of octaves for a view of `size`, as cv::SIFT: round(log2(min side of the
+/// upsampled base) - 2) - firstOctave.
+int numOctaves(cv::Size viewSize);
+
+/// Gaussian and DoG pyramids of one slice. Octave o (0-based) holds images of the
+/// base size / 2^o; gaussian(o, i) for i in [0, layers + 2], dog(o, i) for i in
+/// [0, layers + 1].
+struct ScaleSpace {
+  int octaves = 0;
+  int layers = 0;  // nOctaveLayers
+  std::vector<cv::Mat> gaussians;
+  std::vector<cv::Mat> dogs;
+
+  const cv::Mat& gaussian(int o, int i) const { return gaussians[o * (layers + 3) + i]; }
+  const cv::Mat& dog(int o, int i) const { return dogs[o * (layers + 2) + i]; }
+};
+
+/// Builds the pyramid of a CV_32F slice: base = upsample 2x (bilinear) and blur to
+/// sigma; each octave blurs incrementally,
+///   sigma_i^2 = (k^i sigma)^2 - (k^(i-1) sigma)^2,  k = 2^(1 / layers),
+/// and starts from layer `layers` of the previous octave decimated 2x.
+///
+/// `variance` is the blur the focal stack's interpolation left in this slice and
+/// `targetVariance` the largest over all slices (per axis, view pixels^2; both 0 for
+/// a single view). The base blur tops the slice up to the target, so every slice
+/// carries the same blur, and counts the target as blur already present:
+///   base^2 = max(sigma^2 - (2 * 0.5)^2 - 4 * target, 0.01) + 4 * (target - variance).
+ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
+                           cv::Vec2d variance = {}, cv::Vec2d targetVariance = {});
+
+/// Octave-image coordinate -> centre-view pixel coordinate, for octave index o
+/// (0-based). Octave pixel x sits at base pixel x * 2^o (decimation keeps even
+/// pixels); a 2^-f bilinear upsample puts base pixel X at view pixel
+/// X * 2^f + (2^f - 1) / 2 (pixel centres at integers), i.e. X / 2 - 1/4 for f = -1.
+/// cv::SIFT omits the -1/4; we keep it so positions are unbiased.
+inline float octaveToView(float x, int o) {
+  const float f = std::ldexp(1.f, kFirstOctave);
+  return x * std::ldexp(1.f, o + kFirstOctave) + 0.5f * (f - 1.f);
+}
+/// Inverse of octaveToView.
+inline float viewToOctave(float x, int o) {
+  const float f = std::ldexp(1.f, kFirstOctave);
+  return (x - 0.5f * (f - 1.f)) / std::ldexp(1.f, o + kFirstOctave);
+}
+
+}  // namespace detail
+}  // namespace liff

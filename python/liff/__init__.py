@@ -1,0 +1,22 @@
+"""liff: light field features in scale and depth, as an OpenCV Feature2D.
+
+Swap ``cv2.SIFT.create()`` for ``liff.LiFF.create()`` and pass a light field of
+shape ``(T, S, V, U)`` or ``(T, S, V, U, C)`` (view row, view column, pixel row,
+pixel column, channel) instead of an image. Keypoints and descriptors are what
+``cv2.SIFT`` returns; each keypoint's slope (pixels per view step, equal to HCI
+disparity) is in ``class_id`` and read with :func:`keypoint_slopes`.
+"""
+
+from ._core import SLOPE_SCALE, getNumThreads, opencvVersion, setNumThreads
+from ._detector import LiFF, LiFF_create, keypoint_slopes
+
+__all__ = [
+    "LiFF",
+    "LiFF_create",
+    "SLOPE_SCALE",
+    "keypoint_slopes",
+    "setNumThreads",
+    "getNumThreads",
+    "opencvVersion",
+]
+__version__ = "0.1.0"

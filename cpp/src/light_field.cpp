@@ -89,17 +89,28 @@ LightField toGreyLightField(const cv::Mat& input) {
   }
 
   cv::Mat grey;
-  if (channels == 3) {
-    // Luminance of BGR (ITU-R BT.601, as cv::COLOR_BGR2GRAY), computed in float.
-    cv::Mat asFloat;
-    rows2d.convertTo(asFloat, CV_32F, unitScale(depth));
-    cv::cvtColor(asFloat, grey, cv::COLOR_BGR2GRAY);
-  } else if (depth == CV_32F && rows2d.isContinuous()) {
+  if (channels == 1 && depth == CV_32F && rows2d.isContinuous()) {
     grey = rows2d;  // no copy: we never write to it
   } else {
-    rows2d.convertTo(grey, CV_32F, unitScale(depth));
+    // Convert view by view, so a colour or integer light field never exists as a
+    // whole in float colour.
+    grey.create(lf.T * lf.S * lf.V, lf.U, CV_32F);
+    const double scale = unitScale(depth);
+    cv::parallel_for_(cv::Range(0, lf.T * lf.S), [&](const cv::Range& range) {
+      cv::Mat colour;
+      for (int v = range.start; v < range.end; ++v) {
+        const cv::Mat src = rows2d.rowRange(v * lf.V, (v + 1) * lf.V);
+        cv::Mat dst = grey.rowRange(v * lf.V, (v + 1) * lf.V);
+        if (channels == 3) {
+          // Luminance of BGR (ITU-R BT.601, as cv::COLOR_BGR2GRAY), computed in float.
+          src.convertTo(colour, CV_32F, scale);
+          cv::cvtColor(colour, dst, cv::COLOR_BGR2GRAY);
+        } else {
+          src.convertTo(dst, CV_32F, scale);
+        }
+      }
+    });
   }
-  if (!grey.isContinuous()) grey = grey.clone();
 
   if (depth == CV_32F || depth == CV_64F) {
     cv::Point bad;

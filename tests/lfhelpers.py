@@ -1,0 +1,128 @@
+"""Helpers shared by the liff tests: scene builders and keypoint comparisons.
+
+Imported as a plain module (pytest puts this folder on sys.path); fixtures that use
+these live in conftest.py.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+import liff
+from liff import synthetic
+
+
+def kp_fields(k: cv2.KeyPoint) -> tuple:
+    """Every field of a keypoint, for exact comparisons."""
+    return (k.pt[0], k.pt[1], k.size, k.angle, k.response, k.octave, k.class_id)
+
+
+def assert_same_keypoints(a, b) -> None:
+    """Asserts two keypoint sequences are equal field by field (bit for bit)."""
+    assert len(a) == len(b), f"{len(a)} keypoints != {len(b)}"
+    for i, (ka, kb) in enumerate(zip(a, b)):
+        assert kp_fields(ka) == kp_fields(kb), f"keypoint {i}: {kp_fields(ka)} != {kp_fields(kb)}"
+
+
+def assert_close_keypoints(a, b, atol: float = 1e-3) -> None:
+    """Same count, same octaves; positions, sizes, angles, slopes within atol."""
+    assert len(a) == len(b), f"{len(a)} keypoints != {len(b)}"
+    fa = np.array([kp_fields(k) for k in a]).reshape(-1, 7)
+    fb = np.array([kp_fields(k) for k in b]).reshape(-1, 7)
+    np.testing.assert_allclose(fa[:, :3], fb[:, :3], atol=atol)  # x, y, size
+    angle = np.abs(fa[:, 3] - fb[:, 3])
+    assert np.all(np.minimum(angle, 360 - angle) < 100 * atol)
+    np.testing.assert_allclose(fa[:, 6] / 65536, fb[:, 6] / 65536, atol=atol)  # slope
+
+
+def points(kps) -> np.ndarray:
+    """(N, 2) array of keypoint positions (x, y)."""
+    return np.array([k.pt for k in kps], dtype=np.float64).reshape(-1, 2)
+
+
+def nearest_distances(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """For each row of p, the distance to the nearest row of q (inf if q is empty)."""
+    if len(q) == 0:
+        return np.full(len(p), np.inf)
+    return np.sqrt(((p[:, None, :] - q[None, :, :]) ** 2).sum(-1)).min(1)
+
+
+def match_blobs(kps, blobs, tol: float = 1.0):
+    """Pairs each blob with its nearest keypoint.
+
+    Returns (found, slope_err, offset): a bool array (nearest keypoint within tol px),
+    slope - true slope and (dx, dy) of the nearest keypoint for every blob.
+    """
+    pts, slopes = points(kps), liff.keypoint_slopes(kps)
+    found = np.zeros(len(blobs), dtype=bool)
+    slope_err = np.full(len(blobs), np.nan)
+    offset = np.full((len(blobs), 2), np.nan)
+    for i, b in enumerate(blobs):
+        if len(pts) == 0:
+            continue
+        d = np.hypot(pts[:, 0] - b.x, pts[:, 1] - b.y)
+        j = int(d.argmin())
+        found[i] = d[j] <= tol
+        slope_err[i] = slopes[j] - b.slope
+        offset[i] = pts[j] - (b.x, b.y)
+    return found, slope_err, offset
+
+
+def blob_grid(shape, slopes, spacing=32, radius=(2.5, 3.5), seed=0):
+    """Well-isolated Gaussian blobs on a regular grid, cycling through `slopes`.
+
+    Unlike synthetic.random_blob_layers (neighbours as close as 4 radii, where even
+    cv2.SIFT loses ~10% of blobs), every blob here is >= `spacing` px from the others.
+    """
+    T, S, V, U = shape
+    rng = np.random.default_rng(seed)
+    blobs = []
+    for i, y in enumerate(np.arange(spacing / 2, V - spacing / 2 + 1, spacing)):
+        for j, x in enumerate(np.arange(spacing / 2, U - spacing / 2 + 1, spacing)):
+            k = len(blobs)
+            jitter = rng.uniform(-2, 2, 2)
+            blobs.append(
+                synthetic.Blob(
+                    float(x + jitter[0]), float(y + jitter[1]),
+                    float(rng.uniform(*radius)), float(slopes[k % len(slopes)]),
+                    0.4 if (i + j) % 2 else -0.4,
+                )
+            )
+    return blobs
+
+
+def texture(height: int, width: int, seed: int = 0, sigma: float = 2.0) -> np.ndarray:
+    """Smoothed white noise scaled to [0, 1], float32."""
+    rng = np.random.default_rng(seed)
+    t = cv2.GaussianBlur(rng.random((height, width)).astype(np.float32), (0, 0), sigma)
+    return (t - t.min()) / (t.max() - t.min())
+
+
+def textured_lf(shape, slope: int = 1, offset=(0, 0), seed: int = 0) -> np.ndarray:
+    """A fronto-parallel textured plane at an integer slope (exact integer shifts).
+
+    View (t, s) shows the texture shifted so that a point at (x, y) of the centre view
+    is at (x - slope*(s - s_c), y - slope*(t - t_c)). `offset` (dx, dy) moves the
+    camera: content at (x, y) for offset (0, 0) is at (x - dx, y - dy).
+    T and S must be odd so the centre view is a real view.
+    """
+    T, S, V, U = shape
+    assert T % 2 == 1 and S % 2 == 1 and max(abs(offset[0]), abs(offset[1])) <= 16
+    pad = abs(slope) * max(T, S) + 20  # independent of offset: same texture for all
+    tex = texture(V + 2 * pad, U + 2 * pad, seed)
+    lf = np.empty(shape, np.float32)
+    for t in range(T):
+        for s in range(S):
+            y0 = pad + offset[1] + slope * (t - (T - 1) // 2)
+            x0 = pad + offset[0] + slope * (s - (S - 1) // 2)
+            lf[t, s] = tex[y0:y0 + V, x0:x0 + U]
+    return lf
+
+
+def to_dtype(lf: np.ndarray, dtype) -> np.ndarray:
+    """A [0, 1] float light field in `dtype` (integers scaled to their full range)."""
+    dtype = np.dtype(dtype)
+    if dtype.kind == "u":
+        return np.round(np.clip(lf, 0, 1) * np.iinfo(dtype).max).astype(dtype)
+    return lf.astype(dtype)

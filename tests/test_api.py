@@ -1,0 +1,194 @@
+"""The Feature2D surface: construction, parameters, return types, detect/compute consistency."""
+
+import cv2
+import numpy as np
+import pytest
+
+import liff
+from lfhelpers import assert_same_keypoints, kp_fields
+
+DEFAULTS = dict(
+    nfeatures=0, nOctaveLayers=3, contrastThreshold=0.04, edgeThreshold=10.0, sigma=1.6,
+    firstSlope=-1.0, lastSlope=1.0, numSlopes=0, descriptorType=cv2.CV_32F, rootSift=False,
+)
+CUSTOM = dict(
+    nfeatures=17, nOctaveLayers=4, contrastThreshold=0.031, edgeThreshold=7.5, sigma=1.3,
+    firstSlope=-0.75, lastSlope=1.25, numSlopes=9, descriptorType=cv2.CV_8U, rootSift=True,
+)
+
+
+# keyword -> accessor suffix (getNFeatures/setNFeatures, ...)
+ACCESSOR = dict(
+    nfeatures="NFeatures", nOctaveLayers="NOctaveLayers", contrastThreshold="ContrastThreshold",
+    edgeThreshold="EdgeThreshold", sigma="Sigma", firstSlope="FirstSlope", lastSlope="LastSlope",
+    numSlopes="NumSlopes", descriptorType="DescriptorType", rootSift="RootSift",
+)
+
+
+def params_of(d):
+    return {name: getattr(d, "get" + ACCESSOR[name])() for name in DEFAULTS}
+
+
+def test_module_constants():
+    assert liff.SLOPE_SCALE == 65536
+    assert liff.getNumThreads() >= 1
+    assert isinstance(liff.opencvVersion(), str) and liff.opencvVersion()[0].isdigit()
+
+
+@pytest.mark.parametrize("factory", [liff.LiFF.create, liff.LiFF_create, liff.LiFF])
+def test_defaults(factory):
+    d = factory()
+    assert params_of(d) == DEFAULTS
+    assert isinstance(d, liff.LiFF)
+    assert d.descriptorSize() == 128
+    assert d.descriptorType() == cv2.CV_32F
+    assert d.defaultNorm() == cv2.NORM_L2
+    assert d.getDefaultName() == "Feature2D.LiFF"
+    assert d.empty() is False
+
+
+def test_create_keywords_and_positional():
+    assert params_of(liff.LiFF.create(**CUSTOM)) == CUSTOM
+    assert params_of(liff.LiFF_create(*CUSTOM.values())) == CUSTOM
+    assert liff.LiFF.create(descriptorType=cv2.CV_8U).descriptorType() == cv2.CV_8U
+
+
+@pytest.mark.parametrize("name", list(CUSTOM))
+def test_setter_getter_round_trip(name):
+    d = liff.LiFF.create()
+    cap = ACCESSOR[name]
+    getattr(d, "set" + cap)(CUSTOM[name])
+    assert getattr(d, "get" + cap)() == CUSTOM[name]
+    # and nothing else moved
+    others = {k: v for k, v in params_of(d).items() if k != name}
+    assert others == {k: v for k, v in DEFAULTS.items() if k != name}
+
+
+def test_repr_names_parameters():
+    text = repr(liff.LiFF.create(**CUSTOM))
+    for name in CUSTOM:
+        assert name in text
+
+
+@pytest.mark.parametrize(
+    "T, S, numSlopes, expected",
+    [
+        (7, 7, 0, 7), (9, 9, 0, 9), (4, 4, 0, 5), (6, 6, 0, 7), (2, 2, 0, 3),
+        (1, 7, 0, 7), (5, 3, 0, 5), (3, 8, 0, 9), (5, 5, 11, 11), (5, 5, 1, 1),
+    ],
+)
+def test_slopes_for(T, S, numSlopes, expected):
+    d = liff.LiFF.create(firstSlope=-0.5, lastSlope=1.5, numSlopes=numSlopes)
+    slopes = np.array(d.slopesFor(T, S))
+    if expected == 1:
+        # a single slope: only its count matters here (a 1x1 light field is tested below)
+        assert len(slopes) == 1
+    else:
+        np.testing.assert_allclose(slopes, np.linspace(-0.5, 1.5, expected), atol=1e-12)
+
+
+@pytest.mark.parametrize("first, last", [(-1, 1), (-0.5, 1.5), (0.25, 0.25)])
+def test_slopes_for_single_view(first, last):
+    d = liff.LiFF.create(firstSlope=first, lastSlope=last)
+    assert d.slopesFor(1, 1) == pytest.approx([(first + last) / 2])
+
+
+def test_keypoint_slopes_decoding():
+    kps = [cv2.KeyPoint(1, 2, 3, -1, 0, 0, cid) for cid in (0, 65536, -32768, 12345)]
+    np.testing.assert_array_equal(
+        liff.keypoint_slopes(kps), [0.0, 1.0, -0.5, 12345 / 65536]
+    )
+    assert liff.keypoint_slopes([]).shape == (0,)
+    assert liff.keypoint_slopes(()).dtype == np.float64
+
+
+def test_return_types(detector, blob_lf):
+    kps, desc = detector.detectAndCompute(blob_lf)
+    assert isinstance(kps, tuple) and len(kps) > 10
+    assert all(isinstance(k, cv2.KeyPoint) for k in kps)
+    assert isinstance(desc, np.ndarray) and desc.dtype == np.float32 and desc.shape == (len(kps), 128)
+    assert isinstance(detector.detect(blob_lf), tuple)
+    # SIFT's descriptor: integers 0..255 stored as float32, L2 norm about 512
+    np.testing.assert_array_equal(desc, np.round(desc))
+    assert desc.min() >= 0 and desc.max() <= 255
+    np.testing.assert_allclose(np.linalg.norm(desc, axis=1), 512, rtol=0.02)
+    # the mask argument is accepted positionally, as cv2.SIFT.detectAndCompute(img, None)
+    kps2, _ = detector.detectAndCompute(blob_lf, None)
+    assert_same_keypoints(kps, kps2)
+
+
+def test_nothing_found_gives_empty_tuple_and_none(detector):
+    flat = np.full((3, 3, 48, 48), 0.5)
+    assert detector.detect(flat) == ()
+    assert detector.detectAndCompute(flat) == ((), None)
+    assert detector.compute(flat, []) == ((), None)
+
+
+def test_descriptor_type_uint8_matches_float(blob_lf):
+    k32, d32 = liff.LiFF.create().detectAndCompute(blob_lf)
+    k8, d8 = liff.LiFF.create(descriptorType=cv2.CV_8U).detectAndCompute(blob_lf)
+    assert d8.dtype == np.uint8
+    assert_same_keypoints(k32, k8)
+    np.testing.assert_array_equal(d8.astype(np.float32), d32)
+
+
+def test_root_sift(blob_lf):
+    kps, plain = liff.LiFF.create().detectAndCompute(blob_lf)
+    kr, root = liff.LiFF.create(rootSift=True).detectAndCompute(blob_lf)
+    assert_same_keypoints(kps, kr)
+    assert root.dtype == np.float32
+    np.testing.assert_allclose(np.linalg.norm(root, axis=1), 512, rtol=0.02)
+    # RootSIFT = sqrt of the L1-normalised descriptor (on SIFT's 512 scale). The
+    # library roots the unrounded histogram, so compare loosely (observed: mean
+    # |difference| 0.57 counts, max 7 on small entries).
+    expected = 512 * np.sqrt(plain / plain.sum(axis=1, keepdims=True))
+    assert np.abs(root - expected).mean() < 1.5
+    assert np.abs(root - expected).max() < 16
+
+
+def test_detect_then_compute_equals_detect_and_compute(detector, blob_lf):
+    kps, desc = detector.detectAndCompute(blob_lf)
+    detected = detector.detect(blob_lf)
+    assert_same_keypoints(detected, kps)
+    computed, desc2 = detector.compute(blob_lf, detected)
+    assert_same_keypoints(computed, kps)
+    assert np.abs(desc2 - desc).max() <= 1  # observed: identical
+
+
+def test_compute_accepts_list_and_one_keypoint(detector, blob_lf):
+    kps, desc = detector.detectAndCompute(blob_lf)
+    full_k, full_d = detector.compute(blob_lf, list(kps))
+    for i in (0, len(kps) // 2, len(kps) - 1):
+        one_k, one_d = detector.compute(blob_lf, [kps[i]])
+        assert len(one_k) == 1 and kp_fields(one_k[0]) == kp_fields(kps[i])
+        np.testing.assert_array_equal(one_d[0], full_d[i])
+        np.testing.assert_array_equal(one_d[0], desc[i])
+
+
+def test_compute_keeps_the_given_order(detector, blob_lf):
+    kps, desc = detector.detectAndCompute(blob_lf)
+    perm = np.random.default_rng(0).permutation(len(kps))
+    out_k, out_d = detector.compute(blob_lf, [kps[i] for i in perm])
+    assert [kp_fields(k) for k in out_k] == [kp_fields(kps[i]) for i in perm]
+    np.testing.assert_array_equal(out_d, desc[perm])
+
+
+def test_compute_drops_keypoints_the_pyramid_lacks(detector, blob_lf):
+    kps = detector.detect(blob_lf)
+    good = kps[0]
+    bad_octave = cv2.KeyPoint(good.pt[0], good.pt[1], good.size, good.angle, 0, 40 | (1 << 8), 0)
+    nan_pt = cv2.KeyPoint(float("nan"), 10.0, good.size, good.angle, 0, good.octave, 0)
+    zero_size = cv2.KeyPoint(10.0, 10.0, 0.0, 0.0, 0, good.octave, 0)
+    out_k, out_d = detector.compute(blob_lf, [bad_octave, good, nan_pt, zero_size])
+    assert [kp_fields(k) for k in out_k] == [kp_fields(good)]
+    assert out_d.shape == (1, 128)
+
+
+def test_compute_rejects_non_keypoints(detector, blob_lf):
+    with pytest.raises(TypeError, match="KeyPoint"):
+        detector.compute(blob_lf, [(1.0, 2.0)])
+
+
+def test_use_provided_keypoints_is_refused(detector, blob_lf):
+    with pytest.raises(ValueError, match="compute"):
+        detector.detectAndCompute(blob_lf, None, None, True)

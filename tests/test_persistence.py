@@ -1,0 +1,174 @@
+"""cv2.FileStorage persistence: save/read/write round trips and validation on read."""
+
+import pathlib
+
+import cv2
+import pytest
+
+import liff
+
+CUSTOM = dict(
+    nfeatures=17, nOctaveLayers=4, contrastThreshold=0.031, edgeThreshold=7.5, sigma=1.3,
+    firstSlope=-0.75, lastSlope=1.25, numSlopes=9, descriptorType=cv2.CV_8U, rootSift=True,
+)
+EXTENSIONS = ["yml", "yaml", "xml", "json"]
+
+
+def params(d):
+    return (
+        d.getNFeatures(), d.getNOctaveLayers(), d.getContrastThreshold(), d.getEdgeThreshold(),
+        d.getSigma(), d.getFirstSlope(), d.getLastSlope(), d.getNumSlopes(),
+        d.getDescriptorType(), d.getRootSift(),
+    )
+
+
+@pytest.fixture
+def custom():
+    return liff.LiFF.create(**CUSTOM)
+
+
+@pytest.mark.parametrize("ext", EXTENSIONS)
+@pytest.mark.parametrize("as_path", [False, True])
+def test_save_read_round_trip(tmp_path, custom, ext, as_path):
+    path = pathlib.Path(tmp_path) / f"liff.{ext}"
+    custom.save(path if as_path else str(path))
+    assert path.stat().st_size > 0
+    d = liff.LiFF.create()
+    d.read(path if as_path else str(path))
+    assert params(d) == params(custom)
+
+
+@pytest.mark.parametrize("ext", EXTENSIONS)
+def test_write_path_equals_save(tmp_path, custom, ext):
+    custom.write(str(tmp_path / f"a.{ext}"))
+    custom.save(str(tmp_path / f"b.{ext}"))
+    assert (tmp_path / f"a.{ext}").read_bytes() == (tmp_path / f"b.{ext}").read_bytes()
+
+
+@pytest.mark.parametrize("ext", EXTENSIONS)
+def test_defaults_round_trip_overwrites_everything(tmp_path, ext):
+    path = str(tmp_path / f"defaults.{ext}")
+    liff.LiFF.create().save(path)
+    d = liff.LiFF.create(**CUSTOM)
+    d.read(path)
+    assert params(d) == params(liff.LiFF.create())
+
+
+@pytest.mark.parametrize("ext", ["yml", "xml", "json"])
+def test_write_into_named_node_and_read_file_node(tmp_path, custom, ext):
+    path = str(tmp_path / f"store.{ext}")
+    fs = cv2.FileStorage(path, cv2.FILE_STORAGE_WRITE)
+    fs.write("before", 1)
+    custom.write(fs, "liff_params")
+    fs.write("after", "x")
+    fs.release()
+
+    fs = cv2.FileStorage(path, cv2.FILE_STORAGE_READ)
+    assert fs.getNode("before").real() == 1 and fs.getNode("after").string() == "x"
+    node = fs.getNode("liff_params")
+    assert node.isMap() and node.getNode("name").string() == "Feature2D.LiFF"
+    d = liff.LiFF.create()
+    d.read(node)
+    fs.release()
+    assert params(d) == params(custom)
+
+
+@pytest.mark.parametrize("ext", ["yml", "xml", "json"])
+def test_write_at_root_and_read_root(tmp_path, custom, ext):
+    path = str(tmp_path / f"root.{ext}")
+    fs = cv2.FileStorage(path, cv2.FILE_STORAGE_WRITE)
+    custom.write(fs)
+    fs.release()
+    fs = cv2.FileStorage(path, cv2.FILE_STORAGE_READ)
+    d = liff.LiFF.create()
+    d.read(fs.root())
+    assert params(d) == params(custom)
+    # and the file is a plain FileStorage any OpenCV reader understands
+    assert fs.getNode("nOctaveLayers").real() == 4
+    assert fs.getNode("firstSlope").real() == pytest.approx(-0.75)
+
+
+def test_in_memory_file_storage(custom):
+    fs = cv2.FileStorage(".yml", cv2.FILE_STORAGE_WRITE | cv2.FILE_STORAGE_MEMORY)
+    custom.write(fs, "p")
+    text = fs.releaseAndGetString()
+    fs = cv2.FileStorage(text, cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
+    d = liff.LiFF.create()
+    d.read(fs.getNode("p"))
+    assert params(d) == params(custom)
+
+
+def test_round_trip_preserves_results(tmp_path, custom, blob_lf):
+    path = str(tmp_path / "p.yml")
+    custom.setNFeatures(0)
+    custom.save(path)
+    restored = liff.LiFF.create()
+    restored.read(path)
+    a, da = custom.detectAndCompute(blob_lf)
+    b, db = restored.detectAndCompute(blob_lf)
+    assert [k.pt for k in a] == [k.pt for k in b] and (da == db).all()
+
+
+def test_partial_file_changes_only_what_it_names(tmp_path, custom):
+    path = tmp_path / "partial.yml"
+    path.write_text("%YAML:1.0\n---\nnfeatures: 3\nsigma: 2.5\n")
+    custom.read(str(path))
+    expected = dict(CUSTOM, nfeatures=3, sigma=2.5)
+    assert params(custom) == params(liff.LiFF.create(**expected))
+
+
+BAD_FILES = {
+    "negative sigma": ("sigma: -1.\n", "sigma"),
+    "zero layers": ("nOctaveLayers: 0\n", "nOctaveLayers"),
+    "nan slope": ("firstSlope: .nan\n", "firstSlope"),
+    "bad descriptor type": ("descriptorType: 6\n", "descriptorType"),
+    "negative nfeatures": ("nfeatures: 5\nnumSlopes: -2\n", "numSlopes"),
+    "other algorithm": ("name: Feature2D.SIFT\nnfeatures: 5\n", "SIFT"),
+    "low edge threshold": ("edgeThreshold: 0.25\n", "edgeThreshold"),
+}
+
+
+@pytest.mark.parametrize("body, word", BAD_FILES.values(), ids=BAD_FILES.keys())
+def test_bad_value_raises_and_leaves_detector_unchanged(tmp_path, custom, body, word):
+    path = tmp_path / "bad.yml"
+    path.write_text("%YAML:1.0\n---\n" + body)
+    before = params(custom)
+    with pytest.raises(ValueError, match=word):
+        custom.read(str(path))
+    assert params(custom) == before
+    # the same through a FileNode
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    with pytest.raises(ValueError, match=word):
+        custom.read(fs.root())
+    assert params(custom) == before
+
+
+def test_unreadable_sources(tmp_path, custom):
+    before = params(custom)
+    with pytest.raises(ValueError, match="no file"):
+        custom.read(str(tmp_path / "missing.yml"))
+    with pytest.raises(TypeError, match="FileNode"):
+        custom.read(42)
+    assert params(custom) == before
+
+
+@pytest.mark.parametrize(
+    "text", ["garbage{{{", "{{{ this is not a FileStorage", "%YAML:1.0\n---\nsigma: [1, 2\n", "<opencv_storage><sigma>"]
+)
+def test_malformed_file_raises_value_error(tmp_path, custom, text):
+    # read() documents ValueError when the file cannot be read. Observed bug: for
+    # "{{{ this is not a FileStorage" (and other parse errors) OpenCV's parser error
+    # (-212, StsParseError) escapes as RuntimeError; only "garbage{{{" gives ValueError.
+    path = tmp_path / "malformed.yml"
+    path.write_text(text)
+    before = params(custom)
+    with pytest.raises(ValueError):
+        custom.read(str(path))
+    assert params(custom) == before
+
+
+def test_unwritable_destinations(tmp_path, custom):
+    with pytest.raises(ValueError, match="writable"):
+        custom.save(str(tmp_path / "no" / "such" / "dir" / "p.yml"))
+    with pytest.raises(TypeError, match="FileStorage"):
+        custom.write(3.5)

@@ -330,7 +330,6 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
     buildSlices(lf, slopes, missing, nOctaveLayers_, sigma_, octaves, window);
 
     std::vector<std::vector<cv::KeyPoint>> found(k1 - k0);
-    std::vector<cv::Mat> blocks(k1 - k0);
     cv::parallel_for_(cv::Range(k0, k1), [&](const cv::Range& range) {
       for (int k = range.start; k < range.end; ++k) {
         detail::SliceNeighbourhood slices;
@@ -339,18 +338,22 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
         slices.above = k + 1 < M ? window.at(k + 1).get() : nullptr;
         slices.slope = slopes[k];
         slices.slopeStep = step;
-        std::vector<cv::KeyPoint>& kps = found[k - k0];
-        kps = detail::findSliceKeypoints(slices, params, mask);
-        if (!wantDescriptors) continue;
-        std::vector<int> sliceOf;
-        for (const cv::KeyPoint& kp : kps) sliceOf.push_back(nearestSlice(slopes, keypointSlope(kp)));
-        blocks[k - k0].create(int(kps.size()), detail::kDescriptorSize, descriptorType_);
-        describe(kps, sliceOf, window, blocks[k - k0]);
+        found[k - k0] = detail::findSliceKeypoints(slices, params, mask);
       }
     });
-    for (int k = k0; k < k1; ++k) {
+    const size_t first = keypoints.size();
+    for (int k = k0; k < k1; ++k)
       keypoints.insert(keypoints.end(), found[k - k0].begin(), found[k - k0].end());
-      if (wantDescriptors) descriptorBlocks.push_back(blocks[k - k0]);
+    if (wantDescriptors && keypoints.size() > first) {
+      // Describe the whole batch in one parallel loop, each keypoint on the slice
+      // nearest its slope (within one of its detection slice, so in the window).
+      const std::vector<cv::KeyPoint> batchKeypoints(keypoints.begin() + first, keypoints.end());
+      std::vector<int> sliceOf;
+      for (const cv::KeyPoint& kp : batchKeypoints)
+        sliceOf.push_back(nearestSlice(slopes, keypointSlope(kp)));
+      cv::Mat block(int(batchKeypoints.size()), detail::kDescriptorSize, descriptorType_);
+      describe(batchKeypoints, sliceOf, window, block);
+      descriptorBlocks.push_back(block);
     }
     // Keep only slice k1 - 1, the lower neighbour of the next batch.
     for (auto it = window.begin(); it != window.end();)

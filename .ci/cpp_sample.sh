@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
-# Builds and installs the C++ library, then builds and runs samples/cpp against the
-# installed package with find_package(liff). Uses .venv's cmake/ninja (from PyPI).
+# C++ side: builds the library with its API tests (ctest), installs it, then builds and
+# runs samples/cpp against the installed package with find_package(liff).
+# Uses .venv's cmake/ninja (from PyPI).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 .venv/bin/python -m pip install -q --disable-pip-version-check cmake ninja
 export PATH="$PWD/.venv/bin:$PATH"
 prefix="$PWD/build/cpp-install"
 rm -rf build/cpp build/cpp-sample "$prefix"
-cmake -S . -B build/cpp -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake -S . -B build/cpp -G Ninja -DCMAKE_BUILD_TYPE=Release -DLIFF_BUILD_TESTS=ON >/dev/null
 cmake --build build/cpp
+ctest --test-dir build/cpp --output-on-failure
 cmake --install build/cpp --prefix "$prefix" >/dev/null
 cmake -S samples/cpp -B build/cpp-sample -G Ninja -DCMAKE_PREFIX_PATH="$prefix" >/dev/null
 cmake --build build/cpp-sample

@@ -1,5 +1,7 @@
 #include "arrays.hpp"
 
+#include "profile.hpp"
+
 #include <climits>
 #include <cmath>
 #include <cstring>
@@ -127,6 +129,20 @@ void BindArrays(py::module_& m) {
       "value restores the default; 0 or 1 runs serially.");
   m.def("getNumThreads", &cv::getNumThreads,
         "Number of threads LiFF's core uses (see setNumThreads).");
+  m.def("_set_profiling", &detail::setProfiling, "enabled"_a,
+        "Benchmarks only: turn per-stage timing on or off (off by default).");
+  m.def("_reset_profile", &detail::resetProfile, "Benchmarks only: zero the stage timers.");
+  m.def(
+      "_stage_seconds",
+      [] {
+        const auto s = detail::stageSeconds();
+        py::dict d;
+        const char* names[] = {"focal_stack", "scale_space", "extrema", "refinement",
+                               "descriptors"};
+        for (int i = 0; i < detail::kStageCount; ++i) d[names[i]] = s[i];
+        return d;
+      },
+      "Benchmarks only: seconds per stage, summed over threads, since the last reset.");
   m.def("opencvVersion", [] { return std::string(CV_VERSION); },
         "Version of the system OpenCV the core was built against.");
 }

@@ -1,5 +1,7 @@
 #include "descriptor.hpp"
 
+#include <opencv2/core/hal/hal.hpp>
+
 #include <cfloat>
 #include <cmath>
 #include <vector>
@@ -11,9 +13,12 @@ float orientationHistogram(const cv::Mat& image, cv::Point centre, int radius, f
                            float* hist) {
   const int n = kOrientationBins;
   const float expScale = -1.f / (2.f * sigma * sigma);
-  std::vector<float> raw(n + 4, 0.f);
-  float* temp = raw.data() + 2;  // two guard bins each side for circular smoothing
-
+  const int side = 2 * radius + 1, capacity = side * side;
+  // Gather the gradients first, then take exp / atan2 / magnitude in vectorised batches.
+  cv::AutoBuffer<float> buffer(size_t(capacity) * 4 + n + 4);
+  float *X = buffer.data(), *Y = X + capacity, *W = Y + capacity, *A = W + capacity;
+  float* temp = A + capacity + 2;  // two guard bins each side for circular smoothing
+  int count = 0;
   for (int i = -radius; i <= radius; ++i) {
     const int y = centre.y + i;
     if (y <= 0 || y >= image.rows - 1) continue;
@@ -24,14 +29,21 @@ float orientationHistogram(const cv::Mat& image, cv::Point centre, int radius, f
       const int x = centre.x + j;
       if (x <= 0 || x >= image.cols - 1) continue;
       // Gradient with image y pointing up, so angles run counter-clockwise on screen.
-      const float dx = row[x + 1] - row[x - 1], dy = up[x] - down[x];
-      const float weight = std::exp((i * i + j * j) * expScale);
-      float angle = std::atan2(dy, dx) * float(180.0 / CV_PI);
-      if (angle < 0) angle += 360.f;
-      int bin = cvRound(angle * (n / 360.f));
-      if (bin >= n) bin -= n;
-      temp[bin] += weight * std::sqrt(dx * dx + dy * dy);
+      X[count] = row[x + 1] - row[x - 1];
+      Y[count] = up[x] - down[x];
+      W[count] = (i * i + j * j) * expScale;
+      ++count;
     }
+  }
+  cv::hal::exp32f(W, W, count);
+  cv::hal::fastAtan32f(Y, X, A, count, true);  // degrees in [0, 360)
+  cv::hal::magnitude32f(X, Y, X, count);
+  for (int k = -2; k < n + 2; ++k) temp[k] = 0.f;
+  for (int k = 0; k < count; ++k) {
+    int bin = cvRound(A[k] * (n / 360.f));
+    if (bin >= n) bin -= n;
+    if (bin < 0) bin += n;
+    temp[bin] += W[k] * X[k];
   }
   // Circular smoothing with the kernel [1 4 6 4 1] / 16.
   temp[-1] = temp[n - 1];
@@ -52,7 +64,6 @@ void rawDescriptor(const cv::Mat& image, cv::Point2f point, float angleDegrees, 
   const int d = kDescriptorWidth, n = kDescriptorBins;
   const cv::Point centre(cvRound(point.x), cvRound(point.y));
   const float angle = angleDegrees * float(CV_PI / 180.0);
-  const float binsPerRadian = n / float(2 * CV_PI);
   const float expScale = -1.f / (d * d * 0.5f);
   const float cellWidth = kDescriptorCellFactor * scale;
   // Radius covering the rotated (d + 1) x (d + 1) cell grid, bounded by the image diagonal.
@@ -61,49 +72,68 @@ void rawDescriptor(const cv::Mat& image, cv::Point2f point, float angleDegrees, 
                                           double(image.rows) * image.rows)));
   const float cosT = std::cos(angle) / cellWidth, sinT = std::sin(angle) / cellWidth;
 
-  // Histogram with a guard cell on each side of the grid and two wrap bins.
-  std::vector<float> hist(size_t(d + 2) * (d + 2) * (n + 2), 0.f);
+  // Gather samples inside the rotated grid, then take exp / atan2 / magnitude in
+  // vectorised batches (as cv::SIFT), then spread them trilinearly.
+  const int side = 2 * radius + 1, capacity = side * side;
+  cv::AutoBuffer<float> buffer(size_t(capacity) * 6);
+  float *X = buffer.data(), *Y = X + capacity, *W = Y + capacity, *R = W + capacity,
+        *C = R + capacity, *O = C + capacity;
+  int count = 0;
   for (int i = -radius; i <= radius; ++i) {
     const int y = centre.y + i;
     if (y <= 0 || y >= image.rows - 1) continue;
+    const float* row = image.ptr<float>(y);
+    const float* up = image.ptr<float>(y - 1);
+    const float* down = image.ptr<float>(y + 1);
     for (int j = -radius; j <= radius; ++j) {
       const int x = centre.x + j;
       if (x <= 0 || x >= image.cols - 1) continue;
       // Sample offset in the keypoint's rotated frame, in cell units.
       const float cRot = j * cosT - i * sinT, rRot = j * sinT + i * cosT;
-      float rBin = rRot + d / 2 - 0.5f, cBin = cRot + d / 2 - 0.5f;
+      const float rBin = rRot + d / 2 - 0.5f, cBin = cRot + d / 2 - 0.5f;
       if (!(rBin > -1 && rBin < d && cBin > -1 && cBin < d)) continue;
-      const float dx = image.at<float>(y, x + 1) - image.at<float>(y, x - 1);
-      const float dy = image.at<float>(y - 1, x) - image.at<float>(y + 1, x);
-      float orientation = std::atan2(dy, dx);
-      if (orientation < 0) orientation += float(2 * CV_PI);
-      const float magnitude = std::sqrt(dx * dx + dy * dy) *
-                              std::exp((cRot * cRot + rRot * rRot) * expScale);
-      float oBin = (orientation - angle) * binsPerRadian;
-      // Trilinear interpolation into (row, column, orientation) bins.
-      const int r0 = cvFloor(rBin), c0 = cvFloor(cBin);
-      int o0 = cvFloor(oBin);
-      rBin -= r0;
-      cBin -= c0;
-      oBin -= o0;
-      o0 = ((o0 % n) + n) % n;
-      const float vR1 = magnitude * rBin, vR0 = magnitude - vR1;
-      const float vRC11 = vR1 * cBin, vRC10 = vR1 - vRC11;
-      const float vRC01 = vR0 * cBin, vRC00 = vR0 - vRC01;
-      const float vRCO111 = vRC11 * oBin, vRCO110 = vRC11 - vRCO111;
-      const float vRCO101 = vRC10 * oBin, vRCO100 = vRC10 - vRCO101;
-      const float vRCO011 = vRC01 * oBin, vRCO010 = vRC01 - vRCO011;
-      const float vRCO001 = vRC00 * oBin, vRCO000 = vRC00 - vRCO001;
-      const size_t idx = (size_t(r0 + 1) * (d + 2) + c0 + 1) * (n + 2) + o0;
-      hist[idx] += vRCO000;
-      hist[idx + 1] += vRCO001;
-      hist[idx + (n + 2)] += vRCO010;
-      hist[idx + (n + 3)] += vRCO011;
-      hist[idx + (d + 2) * (n + 2)] += vRCO100;
-      hist[idx + (d + 2) * (n + 2) + 1] += vRCO101;
-      hist[idx + (d + 3) * (n + 2)] += vRCO110;
-      hist[idx + (d + 3) * (n + 2) + 1] += vRCO111;
+      X[count] = row[x + 1] - row[x - 1];
+      Y[count] = up[x] - down[x];
+      W[count] = (cRot * cRot + rRot * rRot) * expScale;
+      R[count] = rBin;
+      C[count] = cBin;
+      ++count;
     }
+  }
+  cv::hal::fastAtan32f(Y, X, O, count, true);  // degrees in [0, 360)
+  cv::hal::magnitude32f(X, Y, X, count);
+  cv::hal::exp32f(W, W, count);
+
+  // Histogram with a guard cell on each side of the grid and two wrap bins.
+  std::vector<float> hist(size_t(d + 2) * (d + 2) * (n + 2), 0.f);
+  const float angleDeg = angleDegrees, binsPerDegree = n / 360.f;
+  for (int k = 0; k < count; ++k) {
+    float rBin = R[k], cBin = C[k];
+    float oBin = (O[k] - angleDeg) * binsPerDegree;
+    const float magnitude = X[k] * W[k];
+    // Trilinear interpolation into (row, column, orientation) bins.
+    const int r0 = cvFloor(rBin), c0 = cvFloor(cBin);
+    int o0 = cvFloor(oBin);
+    rBin -= r0;
+    cBin -= c0;
+    oBin -= o0;
+    o0 = o0 < 0 ? o0 + n : o0 >= n ? o0 - n : o0;
+    const float vR1 = magnitude * rBin, vR0 = magnitude - vR1;
+    const float vRC11 = vR1 * cBin, vRC10 = vR1 - vRC11;
+    const float vRC01 = vR0 * cBin, vRC00 = vR0 - vRC01;
+    const float vRCO111 = vRC11 * oBin, vRCO110 = vRC11 - vRCO111;
+    const float vRCO101 = vRC10 * oBin, vRCO100 = vRC10 - vRCO101;
+    const float vRCO011 = vRC01 * oBin, vRCO010 = vRC01 - vRCO011;
+    const float vRCO001 = vRC00 * oBin, vRCO000 = vRC00 - vRCO001;
+    const size_t idx = (size_t(r0 + 1) * (d + 2) + c0 + 1) * (n + 2) + o0;
+    hist[idx] += vRCO000;
+    hist[idx + 1] += vRCO001;
+    hist[idx + (n + 2)] += vRCO010;
+    hist[idx + (n + 3)] += vRCO011;
+    hist[idx + (d + 2) * (n + 2)] += vRCO100;
+    hist[idx + (d + 2) * (n + 2) + 1] += vRCO101;
+    hist[idx + (d + 3) * (n + 2)] += vRCO110;
+    hist[idx + (d + 3) * (n + 2) + 1] += vRCO111;
   }
   // Fold the wrap bins and drop the guard cells.
   for (int i = 0; i < d; ++i)

@@ -1,6 +1,7 @@
 #include "extrema.hpp"
 
 #include "descriptor.hpp"
+#include "profile.hpp"
 
 #include <liff/liff.hpp>
 
@@ -32,11 +33,13 @@ inline bool beats3x3(float v, bool isMax, const cv::Mat& dog, int r, int c, bool
 }
 
 // Whether dog(o, i) of `here` at (r, c) beats all of its 80 neighbours (26 in its
-// own slice, 27 in each adjacent slice that exists).
+// own slice, 27 in each adjacent slice that exists). The own layer goes first: it
+// rejects most candidates.
 bool isExtremum(const SliceNeighbourhood& slices, int o, int i, int r, int c, float v) {
   const bool isMax = v > 0;
-  for (int di = -1; di <= 1; ++di)
-    if (!beats3x3(v, isMax, slices.here->dog(o, i + di), r, c, di == 0)) return false;
+  if (!beats3x3(v, isMax, slices.here->dog(o, i), r, c, true)) return false;
+  for (int di : {-1, 1})
+    if (!beats3x3(v, isMax, slices.here->dog(o, i + di), r, c, false)) return false;
   for (const ScaleSpace* side : {slices.below, slices.above}) {
     if (!side) continue;
     for (int di = -1; di <= 1; ++di)
@@ -159,11 +162,21 @@ std::vector<cv::KeyPoint> findSliceKeypoints(const SliceNeighbourhood& slices,
     const int rows = first.rows, cols = first.cols;
     for (int i = 1; i <= layers; ++i) {
       const cv::Mat& dog = space.dog(o, i);
+      std::vector<uchar> candidate(cols, 0);
       for (int r = kImageBorder; r < rows - kImageBorder; ++r) {
         const float* row = dog.ptr<float>(r);
+        // Cheapest tests first, branch-free so the compiler vectorises them: the
+        // threshold and the two horizontal neighbours.
         for (int c = kImageBorder; c < cols - kImageBorder; ++c) {
+          const float v = row[c], left = row[c - 1], right = row[c + 1];
+          candidate[c] = uchar((v > preThreshold) & (v > left) & (v > right)) |
+                         uchar((v < -preThreshold) & (v < left) & (v < right));
+        }
+        for (int c = kImageBorder; c < cols - kImageBorder; ++c) {
+          if (!candidate[c]) continue;
           const float v = row[c];
-          if (!(std::abs(v) > preThreshold) || !isExtremum(slices, o, i, r, c, v)) continue;
+          if (!isExtremum(slices, o, i, r, c, v)) continue;
+          StageTimer timer(kRefinement);  // refinement and orientations
           Refined e;
           if (!refine(space, o, params, r, c, i, e)) continue;
 

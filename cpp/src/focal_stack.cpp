@@ -20,30 +20,36 @@ struct Shift {
   }
 };
 
-// Adds one view row, sampled at x + shift for every x, with weight `rowWeight`, into
-// `sum` and its tap weights into `weight`. Interior columns take both taps without
-// tests; the few columns near the borders test each tap.
-void accumulateRow(const float* src, int U, Shift shift, float rowWeight, float* sum,
-                   float* weight) {
-  const float w0 = rowWeight * (1.f - shift.frac), w1 = rowWeight * shift.frac;
+// Adds one view row, sampled at x + shift for every x, into `sum` with the bilinear
+// weights (1 - frac, frac); taps outside the row are skipped. Interior columns take
+// both taps without tests; the few columns near the borders test each tap.
+void accumulateRow(const float* src, int U, Shift shift, float* sum) {
+  const float w0 = 1.f - shift.frac, w1 = shift.frac;
   // Interior: 0 <= x + whole and x + whole + 1 <= U - 1.
-  const int begin = std::max(0, -shift.whole), end = std::min(U, U - 1 - shift.whole);
-  for (int x = 0; x < std::min(begin, U); ++x) {
+  const int begin = std::min(U, std::max(0, -shift.whole));
+  const int end = std::max(begin, std::min(U, U - 1 - shift.whole));
+  auto edge = [&](int x) {
     const int x0 = x + shift.whole, x1 = x0 + 1;
-    if (x0 >= 0 && x0 < U) { sum[x] += w0 * src[x0]; weight[x] += w0; }
-    if (x1 >= 0 && x1 < U) { sum[x] += w1 * src[x1]; weight[x] += w1; }
-  }
+    if (x0 >= 0 && x0 < U) sum[x] += w0 * src[x0];
+    if (x1 >= 0 && x1 < U) sum[x] += w1 * src[x1];
+  };
+  for (int x = 0; x < begin; ++x) edge(x);
   const float* s0 = src + shift.whole;
-  const float rw = rowWeight;
-  for (int x = begin; x < end; ++x) {
-    sum[x] += w0 * s0[x] + w1 * s0[x + 1];
-    weight[x] += rw;
-  }
-  for (int x = std::max(end, begin); x < U; ++x) {
-    const int x0 = x + shift.whole, x1 = x0 + 1;
-    if (x0 >= 0 && x0 < U) { sum[x] += w0 * src[x0]; weight[x] += w0; }
-    if (x1 >= 0 && x1 < U) { sum[x] += w1 * src[x1]; weight[x] += w1; }
-  }
+  for (int x = begin; x < end; ++x) sum[x] += w0 * s0[x] + w1 * s0[x + 1];
+  for (int x = end; x < U; ++x) edge(x);
+}
+
+// Total bilinear weight that falls inside [0, n) at each position p, over all shifts:
+// the per-axis factor of the normalisation (the weights are separable in x and y).
+std::vector<float> insideWeight(const std::vector<Shift>& shifts, int n) {
+  std::vector<float> weight(n, 0.f);
+  for (const Shift& shift : shifts)
+    for (int p = 0; p < n; ++p) {
+      const int p0 = p + shift.whole;
+      if (p0 >= 0 && p0 < n) weight[p] += 1.f - shift.frac;
+      if (p0 + 1 >= 0 && p0 + 1 < n) weight[p] += shift.frac;
+    }
+  return weight;
 }
 
 }  // namespace
@@ -77,30 +83,49 @@ void renderFocalSlice(const LightField& lf, double slope, cv::Mat& slice) {
   std::vector<Shift> xShift, yShift;
   for (int s = 0; s < S; ++s) xShift.emplace_back(-slope * (s - sc));
   for (int t = 0; t < T; ++t) yShift.emplace_back(-slope * (t - tc));
+  // The shifts are separable: every view of row t shares the vertical shift, so
+  //   F(x, y) = sum_t sum_j wy_tj * H_t(y + whole_t + j, x) / (Wx(x) * Wy(y)),
+  //   H_t(r, x) = sum_s sum_i wx_si * L(t, s, r, x + whole_s + i),
+  // with H_t built once per source row and only in-view taps counted in Wx, Wy.
+  const std::vector<float> wx = insideWeight(xShift, U), wy = insideWeight(yShift, V);
 
   const int tasks = (V + kRowsPerTask - 1) / kRowsPerTask;
   cv::parallel_for_(cv::Range(0, tasks), [&](const cv::Range& range) {
-    std::vector<float> weight(U);
+    std::vector<float> rows;  // H_t for the source rows one task needs
     for (int task = range.start; task < range.end; ++task) {
-      const int yEnd = std::min(V, (task + 1) * kRowsPerTask);
-      for (int y = task * kRowsPerTask; y < yEnd; ++y) {
-        float* sum = slice.ptr<float>(y);
-        std::fill(sum, sum + U, 0.f);
-        std::fill(weight.begin(), weight.end(), 0.f);
-        for (int t = 0; t < T; ++t) {
-          // Vertical taps y0 = y + whole (weight 1 - frac) and y0 + 1 (weight frac).
+      const int yBegin = task * kRowsPerTask, yEnd = std::min(V, yBegin + kRowsPerTask);
+      for (int y = yBegin; y < yEnd; ++y) std::fill_n(slice.ptr<float>(y), U, 0.f);
+      for (int t = 0; t < T; ++t) {
+        // Source rows [r0, r1) of view row t feed output rows [yBegin, yEnd).
+        const int r0 = std::max(0, yBegin + yShift[t].whole);
+        const int r1 = std::min(V, yEnd + yShift[t].whole + 1);
+        if (r0 >= r1) continue;
+        rows.assign(size_t(r1 - r0) * U, 0.f);
+        for (int r = r0; r < r1; ++r) {
+          float* h = rows.data() + size_t(r - r0) * U;
+          for (int s = 0; s < S; ++s) accumulateRow(lf.view(t, s) + size_t(r) * U, U, xShift[s], h);
+        }
+        const float w0 = 1.f - yShift[t].frac, w1 = yShift[t].frac;
+        for (int y = yBegin; y < yEnd; ++y) {
+          float* out = slice.ptr<float>(y);
           const int y0 = y + yShift[t].whole;
-          const float fy = yShift[t].frac;
-          for (int s = 0; s < S; ++s) {
-            const float* view = lf.view(t, s);
-            if (y0 >= 0 && y0 < V && fy < 1.f)
-              accumulateRow(view + size_t(y0) * U, U, xShift[s], 1.f - fy, sum, weight.data());
-            if (y0 + 1 >= 0 && y0 + 1 < V && fy > 0.f)
-              accumulateRow(view + size_t(y0 + 1) * U, U, xShift[s], fy, sum, weight.data());
+          if (y0 >= r0 && y0 < r1) {
+            const float* h = rows.data() + size_t(y0 - r0) * U;
+            for (int x = 0; x < U; ++x) out[x] += w0 * h[x];
+          }
+          if (y0 + 1 >= r0 && y0 + 1 < r1 && w1 > 0.f) {
+            const float* h = rows.data() + size_t(y0 + 1 - r0) * U;
+            for (int x = 0; x < U; ++x) out[x] += w1 * h[x];
           }
         }
-        // Normalise by the weight that fell inside the views (>= 0.5 near the centre).
-        for (int x = 0; x < U; ++x) sum[x] = weight[x] > 1e-6f ? sum[x] / weight[x] : 0.f;
+      }
+      // Normalise by the weight that fell inside the views (>= 1/2 per axis).
+      for (int y = yBegin; y < yEnd; ++y) {
+        float* out = slice.ptr<float>(y);
+        for (int x = 0; x < U; ++x) {
+          const float w = wx[x] * wy[y];
+          out[x] = w > 1e-6f ? out[x] / w : 0.f;
+        }
       }
     }
   });

@@ -6,6 +6,7 @@
 #include "extrema.hpp"
 #include "focal_stack.hpp"
 #include "light_field.hpp"
+#include "profile.hpp"
 #include "scale_space.hpp"
 
 #include <algorithm>
@@ -184,11 +185,26 @@ class LiFF_Impl : public LiFF {
                         std::vector<cv::KeyPoint>& keypoints, cv::OutputArray descriptors,
                         bool useProvidedKeypoints) override;
 
+  // Route straight through detectAndCompute, which validates the input: Feature2D's
+  // versions return nothing for an empty image instead of saying it is empty.
+  void detect(cv::InputArray image, std::vector<cv::KeyPoint>& keypoints,
+              cv::InputArray mask) override {
+    detectAndCompute(image, mask, keypoints, cv::noArray(), false);
+  }
+  void compute(cv::InputArray image, std::vector<cv::KeyPoint>& keypoints,
+               cv::OutputArray descriptors) override {
+    detectAndCompute(image, cv::noArray(), keypoints, descriptors, true);
+  }
+  using cv::Feature2D::compute;
+  using cv::Feature2D::detect;
+
  private:
   // Slopes beyond this many pixels per view step are surely a mistake.
   static constexpr double kMaxAbsSlope = 1e4;
   // More slopes than this is surely a mistake (each costs a full SIFT pass).
   static constexpr int kMaxSlopes = 4096;
+  // compute() drops keypoints with |x|, |y| or size at least this (pixels).
+  static constexpr float kMaxCoordinate = 1e6f;
 
   void describe(const std::vector<cv::KeyPoint>& keypoints, const std::vector<int>& sliceOf,
                 const std::map<int, std::shared_ptr<ScaleSpace>>& window,
@@ -223,7 +239,11 @@ void buildSlices(const LightField& lf, const std::vector<double>& slopes,
   cv::parallel_for_(cv::Range(0, int(which.size())), [&](const cv::Range& range) {
     for (int j = range.start; j < range.end; ++j) {
       cv::Mat slice;
-      detail::renderFocalSlice(lf, slopes[which[j]], slice);
+      {
+        detail::StageTimer timer(detail::kFocalStack);
+        detail::renderFocalSlice(lf, slopes[which[j]], slice);
+      }
+      detail::StageTimer timer(detail::kScaleSpace);
       const cv::Vec2d variance = detail::interpolationVariance(lf.T, lf.S, slopes[which[j]]);
       built[j] = std::make_shared<ScaleSpace>(
           detail::buildScaleSpace(slice, layers, sigma, octaves, variance, target));
@@ -241,6 +261,7 @@ void LiFF_Impl::describe(const std::vector<cv::KeyPoint>& keypoints,
                          const std::map<int, std::shared_ptr<ScaleSpace>>& window,
                          cv::Mat& descriptors) const {
   cv::parallel_for_(cv::Range(0, int(keypoints.size())), [&](const cv::Range& range) {
+    detail::StageTimer timer(detail::kDescriptors);
     float raw[detail::kDescriptorSize];
     for (int k = range.start; k < range.end; ++k) {
       const cv::KeyPoint& kp = keypoints[k];
@@ -280,9 +301,12 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
     std::vector<int> sliceOf;
     for (const cv::KeyPoint& kp : keypoints) {
       int o, layer;
-      if (octaves < 1 || !detail::unpackOctave(kp, octaves, nOctaveLayers_, o, layer) ||
-          !std::isfinite(kp.pt.x) || !std::isfinite(kp.pt.y) || !std::isfinite(kp.size) ||
-          !std::isfinite(kp.angle) || !(kp.size > 0))
+      // Coordinates and sizes beyond kMaxCoordinate cannot be described (and would
+      // overflow the sampling window's integer arithmetic).
+      const bool usable = std::abs(kp.pt.x) < kMaxCoordinate &&
+                          std::abs(kp.pt.y) < kMaxCoordinate && kp.size > 0 &&
+                          kp.size < kMaxCoordinate && std::isfinite(kp.angle);
+      if (octaves < 1 || !usable || !detail::unpackOctave(kp, octaves, nOctaveLayers_, o, layer))
         continue;
       kept.push_back(kp);
       sliceOf.push_back(nearestSlice(slopes, keypointSlope(kp)));
@@ -330,7 +354,6 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
     buildSlices(lf, slopes, missing, nOctaveLayers_, sigma_, octaves, window);
 
     std::vector<std::vector<cv::KeyPoint>> found(k1 - k0);
-    std::vector<cv::Mat> blocks(k1 - k0);
     cv::parallel_for_(cv::Range(k0, k1), [&](const cv::Range& range) {
       for (int k = range.start; k < range.end; ++k) {
         detail::SliceNeighbourhood slices;
@@ -339,18 +362,23 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
         slices.above = k + 1 < M ? window.at(k + 1).get() : nullptr;
         slices.slope = slopes[k];
         slices.slopeStep = step;
-        std::vector<cv::KeyPoint>& kps = found[k - k0];
-        kps = detail::findSliceKeypoints(slices, params, mask);
-        if (!wantDescriptors) continue;
-        std::vector<int> sliceOf;
-        for (const cv::KeyPoint& kp : kps) sliceOf.push_back(nearestSlice(slopes, keypointSlope(kp)));
-        blocks[k - k0].create(int(kps.size()), detail::kDescriptorSize, descriptorType_);
-        describe(kps, sliceOf, window, blocks[k - k0]);
+        detail::StageTimer timer(detail::kExtrema);
+        found[k - k0] = detail::findSliceKeypoints(slices, params, mask);
       }
     });
-    for (int k = k0; k < k1; ++k) {
+    const size_t first = keypoints.size();
+    for (int k = k0; k < k1; ++k)
       keypoints.insert(keypoints.end(), found[k - k0].begin(), found[k - k0].end());
-      if (wantDescriptors) descriptorBlocks.push_back(blocks[k - k0]);
+    if (wantDescriptors && keypoints.size() > first) {
+      // Describe the whole batch in one parallel loop, each keypoint on the slice
+      // nearest its slope (within one of its detection slice, so in the window).
+      const std::vector<cv::KeyPoint> batchKeypoints(keypoints.begin() + first, keypoints.end());
+      std::vector<int> sliceOf;
+      for (const cv::KeyPoint& kp : batchKeypoints)
+        sliceOf.push_back(nearestSlice(slopes, keypointSlope(kp)));
+      cv::Mat block(int(batchKeypoints.size()), detail::kDescriptorSize, descriptorType_);
+      describe(batchKeypoints, sliceOf, window, block);
+      descriptorBlocks.push_back(block);
     }
     // Keep only slice k1 - 1, the lower neighbour of the next batch.
     for (auto it = window.begin(); it != window.end();)

@@ -15,11 +15,17 @@ const char* kShapes =
     "expected a light field of shape (T, S, V, U) or (T, S, V, U, C), or an image of "
     "shape (V, U) or (V, U, C), with C = 1 (grey) or 3 (BGR)";
 
+// OpenCV depth of a numpy dtype, or -1. Compares kind and size, not dtype object
+// identity (an equivalent dtype made by newbyteorder('=') is a different object);
+// non-native byte order is refused.
 int cvDepthOf(const py::dtype& dtype) {
-  if (dtype.is(py::dtype::of<uint8_t>())) return CV_8U;
-  if (dtype.is(py::dtype::of<uint16_t>())) return CV_16U;
-  if (dtype.is(py::dtype::of<float>())) return CV_32F;
-  if (dtype.is(py::dtype::of<double>())) return CV_64F;
+  if (!dtype.attr("isnative").cast<bool>()) return -1;
+  const char kind = dtype.kind();
+  const py::ssize_t size = dtype.itemsize();
+  if (kind == 'u' && size == 1) return CV_8U;
+  if (kind == 'u' && size == 2) return CV_16U;
+  if (kind == 'f' && size == 4) return CV_32F;
+  if (kind == 'f' && size == 8) return CV_64F;
   return -1;
 }
 
@@ -68,10 +74,10 @@ cv::Mat maskMat(const py::object& mask) {
   if (!py::isinstance<py::array>(mask))
     throw py::value_error("mask must be a numpy uint8 array of shape (V, U) or None");
   const py::array a = mask.cast<py::array>();
-  if (!a.dtype().is(py::dtype::of<uint8_t>()) || a.ndim() != 2)
+  if (cvDepthOf(a.dtype()) != CV_8U || a.ndim() != 2 || a.size() == 0)
     throw py::value_error("mask has dtype " + std::string(py::str(a.dtype())) + " and shape " +
-                          shapeOf(a) + "; expected a 2-D uint8 array of the centre view's "
-                          "shape (V, U)");
+                          shapeOf(a) + "; expected a non-empty 2-D uint8 array of the centre "
+                          "view's shape (V, U), or None");
   requireContiguous(a, "the mask");
   return cv::Mat(int(a.shape(0)), int(a.shape(1)), CV_8UC1, const_cast<void*>(a.data()));
 }

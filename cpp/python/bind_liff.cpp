@@ -105,7 +105,14 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
   cls.def(
       "_read_file",
       [](PyLiFF& s, const std::string& path) {
-        cv::FileStorage fs(path, cv::FileStorage::READ);
+        cv::FileStorage fs;
+        try {
+          fs.open(path, cv::FileStorage::READ);
+        } catch (const cv::Exception& e) {
+          throw py::value_error("cannot parse LiFF parameters in '" + path + "' (" + e.err +
+                                "); expected an OpenCV FileStorage file (.yml, .yaml, .xml "
+                                "or .json)");
+        }
         if (!fs.isOpened())
           throw py::value_error("cannot read LiFF parameters from '" + path +
                                 "'; expected a readable OpenCV FileStorage file "

@@ -22,7 +22,7 @@ PYBIND11_MODULE(_core, m) {
     } catch (const cv::Exception& e) {
       const std::string message = e.err.empty() ? std::string(e.what()) : e.err;
       if (e.code == cv::Error::StsBadArg || e.code == cv::Error::StsBadSize ||
-          e.code == cv::Error::StsOutOfRange)
+          e.code == cv::Error::StsOutOfRange || e.code == cv::Error::StsParseError)
         PyErr_SetString(PyExc_ValueError, message.c_str());
       else
         PyErr_SetString(PyExc_RuntimeError, e.what());

@@ -18,15 +18,17 @@ constexpr int kImageBorder = 5;
 /// Newton steps allowed for the (x, y, scale) refinement before giving up.
 constexpr int kMaxRefineSteps = 5;
 
-// True if v beats (strictly exceeds, or for minima is strictly below) all nine
-// samples of the 3x3 patch of `dog` centred at (r, c), skipping the centre if asked.
+// True if v is >= (for maxima; <= for minima) all nine samples of the 3x3 patch of
+// `dog` centred at (r, c), skipping the centre if asked. Ties pass, as in cv::SIFT:
+// a blob centred between two pixels has two equal samples, and a strict test would
+// lose it; the two refine to the same point and one is dropped as a duplicate.
 inline bool beats3x3(float v, bool isMax, const cv::Mat& dog, int r, int c, bool skipCentre) {
   for (int dr = -1; dr <= 1; ++dr) {
     const float* row = dog.ptr<float>(r + dr);
     for (int dc = -1; dc <= 1; ++dc) {
       if (skipCentre && dr == 0 && dc == 0) continue;
       const float n = row[c + dc];
-      if (isMax ? !(v > n) : !(v < n)) return false;
+      if (isMax ? !(v >= n) : !(v <= n)) return false;
     }
   }
   return true;
@@ -169,8 +171,8 @@ std::vector<cv::KeyPoint> findSliceKeypoints(const SliceNeighbourhood& slices,
         // threshold and the two horizontal neighbours.
         for (int c = kImageBorder; c < cols - kImageBorder; ++c) {
           const float v = row[c], left = row[c - 1], right = row[c + 1];
-          candidate[c] = uchar((v > preThreshold) & (v > left) & (v > right)) |
-                         uchar((v < -preThreshold) & (v < left) & (v < right));
+          candidate[c] = uchar((v > preThreshold) & (v >= left) & (v >= right)) |
+                         uchar((v < -preThreshold) & (v <= left) & (v <= right));
         }
         for (int c = kImageBorder; c < cols - kImageBorder; ++c) {
           if (!candidate[c]) continue;

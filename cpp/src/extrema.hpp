@@ -29,8 +29,9 @@ struct SliceNeighbourhood {
   double slopeStep = 0;  // spacing of the slope grid (0 for a single slice)
 };
 
-/// Finds the keypoints of slice k: samples that beat all 80 neighbours of their
-/// 3x3x3x3 (x, y, scale, slope) neighbourhood, refined as SIFT in (x, y, scale) and
+/// Finds the keypoints of slice k: samples with |D| above half the contrast
+/// threshold that are >= (maxima) or <= (minima) all 80 neighbours of their
+/// 3x3x3x3 (x, y, scale, slope) neighbourhood (ties pass, as in cv::SIFT), refined as SIFT in (x, y, scale) and
 /// by a parabola in slope, kept if their contrast and edge tests pass and they fall
 /// inside `mask` (if not empty), with one keypoint per dominant orientation.
 /// Keypoints are in centre-view pixels, octave packed as cv::SIFT, class_id the slope.

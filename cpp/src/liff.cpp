@@ -84,8 +84,8 @@ class LiFF_Impl : public LiFF {
   }
   double getEdgeThreshold() const override { return edgeThreshold_; }
   void setSigma(double v) override {
-    require(std::isfinite(v) && v > 0 && v <= 100,
-            cv::format("sigma = %g; expected a value in (0, 100]", v));
+    require(std::isfinite(v) && v >= 0.01 && v <= 100,
+            cv::format("sigma = %g; expected a value in [0.01, 100]", v));
     sigma_ = v;
   }
   double getSigma() const override { return sigma_; }
@@ -162,11 +162,24 @@ class LiFF_Impl : public LiFF {
                                          getDefaultName() + "'");
     // Validate everything on a copy before changing this object.
     LiFF_Impl next(*this);
+    auto number = [&](const char* key) {
+      const cv::FileNode n = fn[key];
+      if (!n.isInt() && !n.isReal())
+        CV_Error(cv::Error::StsBadArg,
+                 cv::format("LiFF: read() found parameter '%s' of the wrong type; expected a "
+                            "number", key));
+      return n.isInt() ? double(int(n)) : double(n);
+    };
     auto readInt = [&](const char* key, void (LiFF_Impl::*set)(int)) {
-      if (!fn[key].empty()) (next.*set)(int(fn[key]));
+      if (fn[key].empty()) return;
+      const double v = number(key);
+      if (v != std::floor(v) || std::abs(v) > INT_MAX)
+        CV_Error(cv::Error::StsBadArg,
+                 cv::format("LiFF: read() found %s = %g; expected an integer", key, v));
+      (next.*set)(int(v));
     };
     auto readReal = [&](const char* key, void (LiFF_Impl::*set)(double)) {
-      if (!fn[key].empty()) (next.*set)(double(fn[key]));
+      if (!fn[key].empty()) (next.*set)(number(key));
     };
     readInt("nfeatures", &LiFF_Impl::setNFeatures);
     readInt("nOctaveLayers", &LiFF_Impl::setNOctaveLayers);
@@ -177,7 +190,7 @@ class LiFF_Impl : public LiFF {
     readReal("lastSlope", &LiFF_Impl::setLastSlope);
     readInt("numSlopes", &LiFF_Impl::setNumSlopes);
     readInt("descriptorType", &LiFF_Impl::setDescriptorType);
-    if (!fn["rootSift"].empty()) next.setRootSift(int(fn["rootSift"]) != 0);
+    if (!fn["rootSift"].empty()) next.setRootSift(number("rootSift") != 0);
     *this = next;
   }
 

@@ -25,7 +25,8 @@ def _as_light_field(lf) -> np.ndarray:
         raise ValueError("light field dtype is bool; expected uint8, uint16, float32 or float64")
     if not lf.dtype.isnative:
         lf = lf.astype(lf.dtype.newbyteorder("="))
-    return np.ascontiguousarray(lf)
+    # (np.ascontiguousarray would turn a 0-d array into shape (1,).)
+    return lf if lf.flags.c_contiguous else np.ascontiguousarray(lf)
 
 
 def _as_mask(mask) -> Optional[np.ndarray]:
@@ -34,7 +35,7 @@ def _as_mask(mask) -> Optional[np.ndarray]:
     mask = np.asarray(mask)
     if mask.dtype == np.bool_:
         mask = mask.astype(np.uint8)
-    return np.ascontiguousarray(mask)
+    return mask if mask.flags.c_contiguous else np.ascontiguousarray(mask)
 
 
 def _keypoints_to_rows(keypoints) -> np.ndarray:

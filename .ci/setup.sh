@@ -3,7 +3,8 @@
 # installs what is missing (the system OpenCV dev package, a C++ compiler, venv),
 # makes a virtualenv in .venv, installs liff into it, then
 #   demo [DIR]  runs the main job on the built-in example (pictures into DIR), or
-#   test        runs the test suite and builds the C++ sample against the installed package.
+#   test        builds and runs the C++ tests and sample (against the installed C++
+#               package), then runs the Python test suite.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mode=${1:-demo}
@@ -28,5 +29,5 @@ if [ "$mode" = demo ]; then
   exec .venv/bin/liff demo --out "${2:-liff-demo}"
 fi
 
-.venv/bin/python -m pytest tests
 bash .ci/cpp_sample.sh
+.venv/bin/python -m pytest tests

@@ -32,6 +32,7 @@ def layered_light_field(shape=ILLUM_SHAPE, seed=0, noise_variance=1e-4) -> np.nd
                  ((xx - U * 0.45) ** 2 + (yy - V * 0.5) ** 2 < (0.3 * V) ** 2).astype(np.float32))
     layers[2] = (layers[2][0], layers[2][1], (np.mod(xx, 60) < 8).astype(np.float32))
     lf = np.zeros(shape, np.float32)
+    noise = np.random.default_rng(seed + 9)
     for t in range(T):
         for s in range(S):
             view = np.zeros((V, U), np.float32)
@@ -44,7 +45,7 @@ def layered_light_field(shape=ILLUM_SHAPE, seed=0, noise_variance=1e-4) -> np.nd
                 a = cv2.warpAffine(alpha, M, (U, V), flags=cv2.INTER_LINEAR,
                                    borderMode=cv2.BORDER_REFLECT)
                 view = view * (1 - a) + warped * a
-            lf[t, s] = view
-    if noise_variance > 0:
-        lf += np.random.default_rng(seed + 9).normal(0, np.sqrt(noise_variance), shape).astype(np.float32)
-    return np.clip(lf, 0, 1)
+            if noise_variance > 0:  # view by view, so memory stays at one light field
+                view += noise.normal(0, np.sqrt(noise_variance), (V, U)).astype(np.float32)
+            lf[t, s] = np.clip(view, 0, 1)
+    return lf

@@ -10,8 +10,9 @@ pixels, textured occluding layers, 11 slopes, default parameters):
 * the ratios LiFF / SIFT and repeated SIFT / LiFF, the process's peak memory, LiFF's
   per-stage breakdown (thread-summed seconds), and how LiFF's time grows with the
   number of slopes, of views and of pixels, with a least-squares fit of the cost model
-      time = a * M * P  +  b * M * N * P  +  c
-  (M slopes, N views, P pixels per view: scale spaces, shift-and-sum, fixed costs).
+      time = a * M * P  +  b * M * N * P  +  d * K  +  c
+  (M slopes, N views, P pixels per view, K keypoints: scale spaces and extrema,
+  shift-and-sum, descriptors, fixed costs).
 
 Both libraries use the same number of threads (--threads, default: all cores).
 Usage:  python benchmarks/speed.py [--repeats 3] [--threads N] [--quick]
@@ -35,14 +36,17 @@ import liff._core as core  # noqa: E402
 from lightfields import ILLUM_SHAPE, layered_light_field  # noqa: E402
 
 
+def timed(fn):
+    """(wall seconds, result) of one call."""
+    start = time.perf_counter()
+    result = fn()
+    return time.perf_counter() - start, result
+
+
 def best_of(repeats, fn):
     """(smallest wall time in seconds, last result) over ``repeats`` calls."""
-    times, result = [], None
-    for _ in range(repeats):
-        start = time.perf_counter()
-        result = fn()
-        times.append(time.perf_counter() - start)
-    return min(times), result
+    runs = [timed(fn) for _ in range(repeats)]
+    return min(t for t, _ in runs), runs[-1][1]
 
 
 def peak_rss_mb() -> float:
@@ -55,7 +59,7 @@ def to_uint8(view):
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=7)
     parser.add_argument("--threads", type=int, default=os.cpu_count())
     parser.add_argument("--quick", action="store_true", help="skip the scaling table")
     args = parser.parse_args(argv)
@@ -71,16 +75,26 @@ def main(argv=None) -> int:
     detector = liff.LiFF.create(numSlopes=11)
     sift = cv2.SIFT.create()
 
-    liff_time, (kps, _) = best_of(args.repeats, lambda: detector.detectAndCompute(lf, None))
-    sift_time, (skps, _) = best_of(args.repeats, lambda: sift.detectAndCompute(centre8, None))
-    repeated_time, counts = best_of(
-        1, lambda: [len(sift.detectAndCompute(v, None)[0]) for v in views8])
-    print(f"\nlight field {T}x{S} views of {V}x{U}, float32, 11 slopes; best of {args.repeats}")
-    print(f"| method | seconds | keypoints |\n|---|---|---|")
+    # LiFF and SIFT alternate, so that both see the same machine load; the ratio is
+    # the median of the per-round ratios.
+    rounds = []
+    for _ in range(args.repeats):
+        liff_t, (kps, _) = timed(lambda: detector.detectAndCompute(lf, None))
+        sift_t, (skps, _) = timed(lambda: sift.detectAndCompute(centre8, None))
+        rounds.append((liff_t, sift_t))
+    liff_time = float(np.median([r[0] for r in rounds]))
+    sift_time = float(np.median([r[1] for r in rounds]))
+    ratio = float(np.median([r[0] / r[1] for r in rounds]))
+    repeated_time, counts = timed(
+        lambda: [len(sift.detectAndCompute(v, None)[0]) for v in views8])
+    print(f"\nlight field {T}x{S} views of {V}x{U}, float32, 11 slopes; medians of {args.repeats} "
+          f"alternating rounds")
+    print("| method | seconds | keypoints |\n|---|---|---|")
     print(f"| LiFF detectAndCompute | {liff_time:.3f} | {len(kps)} |")
     print(f"| SIFT, centre view | {sift_time:.3f} | {len(skps)} |")
-    print(f"| SIFT on all {T * S} views | {repeated_time:.3f} | {sum(counts)} in all |")
-    print(f"\nLiFF / SIFT(centre view) = {liff_time / sift_time:.2f}   (target <= 4)")
+    print(f"| SIFT on all {T * S} views (once) | {repeated_time:.3f} | {sum(counts)} in all |")
+    print(f"\nLiFF / SIFT(centre view) = {ratio:.2f}   (target <= 4; per-round ratios "
+          f"{', '.join(f'{a / b:.2f}' for a, b in rounds)})")
     print(f"repeated SIFT / LiFF     = {repeated_time / liff_time:.1f}   (target >= 30)")
 
     core._set_profiling(True)
@@ -96,15 +110,18 @@ def main(argv=None) -> int:
     for name, seconds in stages.items():
         print(f"| {name} | {seconds:.3f} | {100 * seconds / total:.0f}% |")
 
+    print(f"\npeak memory of this process so far (ru_maxrss): {peak_rss_mb():.0f} MB   "
+          f"(target <= 400; the light field itself is {lf.nbytes / 2**20:.0f} MB)")
     if not args.quick:
-        scaling(args.repeats)
-    print(f"\npeak memory of this process (ru_maxrss): {peak_rss_mb():.0f} MB   (target <= 400)")
+        del lf, views8, centre8  # the scaling cases make their own light fields
+        scaling(3)
+        print(f"peak memory after the scaling table: {peak_rss_mb():.0f} MB")
     return 0
 
 
 def scaling(repeats: int) -> None:
     """LiFF time against slopes, views and pixels; fits the cost model."""
-    rows = []  # (M, N views, P pixels, seconds)
+    rows = []  # (M, N views, P pixels, K keypoints, seconds)
     base = (11, 11, 188, 270)  # half-size views keep the table quick
     for M in (3, 7, 11, 21):
         rows.append(run_case(base, M, repeats))
@@ -113,24 +130,23 @@ def scaling(repeats: int) -> None:
     for scale in (0.5, 2.0):
         rows.append(run_case((11, 11, int(188 * scale), int(270 * scale)), 11, repeats))
     print("\nscaling (LiFF detectAndCompute):")
-    print("| slopes M | views N | pixels P | seconds |\n|---|---|---|---|")
-    for M, N, P, sec in rows:
-        print(f"| {M} | {N} | {P} | {sec:.3f} |")
-    X = np.array([[M * P, M * N * P, 1.0] for M, N, P, _ in rows])
-    y = np.array([r[3] for r in rows])
+    print("| slopes M | views N | pixels P | keypoints K | seconds |\n|---|---|---|---|---|")
+    for M, N, P, K, sec in rows:
+        print(f"| {M} | {N} | {P} | {K} | {sec:.3f} |")
+    X = np.array([[M * P, M * N * P, K, 1.0] for M, N, P, K, _ in rows])
+    y = np.array([r[4] for r in rows])
     coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-    pred = X @ coef
-    err = np.abs(pred - y) / y
-    print(f"cost model time = a*M*P + b*M*N*P + c: a = {coef[0] * 1e9:.2f} ns, "
-          f"b = {coef[1] * 1e9:.3f} ns, c = {coef[2] * 1e3:.1f} ms; "
+    err = np.abs(X @ coef - y) / y
+    print(f"cost model time = a*M*P + b*M*N*P + d*K + c: a = {coef[0] * 1e9:.1f} ns, "
+          f"b = {coef[1] * 1e9:.3f} ns, d = {coef[2] * 1e6:.1f} us, c = {coef[3] * 1e3:.1f} ms; "
           f"max relative error {100 * err.max():.0f}%")
 
 
 def run_case(shape, M, repeats):
     lf = layered_light_field(shape)
     detector = liff.LiFF.create(numSlopes=M)
-    seconds, _ = best_of(repeats, lambda: detector.detectAndCompute(lf, None))
-    return M, shape[0] * shape[1], shape[2] * shape[3], seconds
+    seconds, (kps, _) = best_of(repeats, lambda: detector.detectAndCompute(lf, None))
+    return M, shape[0] * shape[1], shape[2] * shape[3], len(kps), seconds
 
 
 if __name__ == "__main__":

@@ -149,78 +149,91 @@ bool unpackOctave(const cv::KeyPoint& keypoint, int octaves, int layers, int& o,
   return o >= 0 && o < octaves && layer >= 0 && layer <= layers + 2;
 }
 
-std::vector<cv::KeyPoint> findSliceKeypoints(const SliceNeighbourhood& slices,
-                                             const DetectParams& params, const cv::Mat& mask) {
+std::vector<SearchTask> searchTasks(const ScaleSpace& space, int rowsPerTask) {
+  std::vector<SearchTask> tasks;
+  for (int o = 0; o < space.octaves; ++o) {
+    const int rows = space.dog(o, 0).rows;
+    for (int i = 1; i <= space.layers; ++i)
+      for (int r = kImageBorder; r < rows - kImageBorder; r += rowsPerTask)
+        tasks.push_back({o, i, r, std::min(rows - kImageBorder, r + rowsPerTask)});
+  }
+  return tasks;
+}
+
+std::vector<cv::KeyPoint> findKeypoints(const SliceNeighbourhood& slices,
+                                        const DetectParams& params, const cv::Mat& mask,
+                                        const SearchTask& task) {
   const ScaleSpace& space = *slices.here;
-  const int layers = params.layers;
+  const int layers = params.layers, o = task.o, i = task.layer;
   // Cheap pre-test on |D| before the 80-neighbour comparison (as cv::SIFT: half the
   // final contrast threshold).
   const float preThreshold = float(0.5 * params.contrastThreshold / layers);
   std::vector<cv::KeyPoint> keypoints;
   float hist[kOrientationBins];
 
-  for (int o = 0; o < space.octaves; ++o) {
-    const cv::Mat& first = space.dog(o, 0);
-    const int rows = first.rows, cols = first.cols;
-    for (int i = 1; i <= layers; ++i) {
-      const cv::Mat& dog = space.dog(o, i);
-      std::vector<uchar> candidate(cols, 0);
-      for (int r = kImageBorder; r < rows - kImageBorder; ++r) {
-        const float* row = dog.ptr<float>(r);
-        // Cheapest tests first, branch-free so the compiler vectorises them: the
-        // threshold and the two horizontal neighbours.
-        for (int c = kImageBorder; c < cols - kImageBorder; ++c) {
-          const float v = row[c], left = row[c - 1], right = row[c + 1];
-          candidate[c] = uchar((v > preThreshold) & (v >= left) & (v >= right)) |
-                         uchar((v < -preThreshold) & (v <= left) & (v <= right));
-        }
-        for (int c = kImageBorder; c < cols - kImageBorder; ++c) {
-          if (!candidate[c]) continue;
-          const float v = row[c];
-          if (!isExtremum(slices, o, i, r, c, v)) continue;
-          StageTimer timer(kRefinement);  // refinement and orientations
-          Refined e;
-          if (!refine(space, o, params, r, c, i, e)) continue;
+  const cv::Mat& dog = space.dog(o, i);
+  const int cols = dog.cols;
+  // The full test of one column of row r: 80 neighbours, refinement, orientations.
+  int r = 0;
+  const float* row = nullptr;
+  auto searchColumn = [&](int c) {
+    const float v = row[c];
+    if (!isExtremum(slices, o, i, r, c, v)) return;
+    StageTimer timer(kRefinement);  // refinement and orientations
+    Refined e;
+    if (!refine(space, o, params, r, c, i, e)) return;
 
-          cv::KeyPoint kp;
-          kp.pt = cv::Point2f(octaveToView(e.c + e.xc, o), octaveToView(e.r + e.xr, o));
-          if (!mask.empty()) {
-            const int mx = cvRound(kp.pt.x), my = cvRound(kp.pt.y);
-            if (mx < 0 || my < 0 || mx >= mask.cols || my >= mask.rows ||
-                mask.at<uchar>(my, mx) == 0)
-              continue;
-          }
-          kp.octave = ((o + kFirstOctave) & 255) + (e.layer << 8) +
-                      (cvRound((e.xi + 0.5) * 255) << 16);
-          // Diameter: 2 sigma in view pixels.
-          const float octaveSigma = float(params.sigma * std::pow(2.0, (e.layer + e.xi) / layers));
-          kp.size = octaveSigma * std::ldexp(1.f, o + kFirstOctave) * 2.f;
-          kp.response = std::abs(e.contrast);
-          const double slope = slices.slope + subSlopeOffset(slices, o, e) * slices.slopeStep;
-          kp.class_id = slopeToClassId(slope);
+    cv::KeyPoint kp;
+    kp.pt = cv::Point2f(octaveToView(e.c + e.xc, o), octaveToView(e.r + e.xr, o));
+    if (!mask.empty()) {
+      const int mx = cvRound(kp.pt.x), my = cvRound(kp.pt.y);
+      if (mx < 0 || my < 0 || mx >= mask.cols || my >= mask.rows ||
+          mask.at<uchar>(my, mx) == 0)
+        return;
+    }
+    kp.octave = ((o + kFirstOctave) & 255) + (e.layer << 8) +
+                (cvRound((e.xi + 0.5) * 255) << 16);
+    // Diameter: 2 sigma in view pixels.
+    const float octaveSigma = float(params.sigma * std::pow(2.0, (e.layer + e.xi) / layers));
+    kp.size = octaveSigma * std::ldexp(1.f, o + kFirstOctave) * 2.f;
+    kp.response = std::abs(e.contrast);
+    const double slope = slices.slope + subSlopeOffset(slices, o, e) * slices.slopeStep;
+    kp.class_id = slopeToClassId(slope);
 
-          // Orientations: every histogram peak within 80% of the highest.
-          const float highest = orientationHistogram(
-              space.gaussian(o, e.layer), cv::Point(e.c, e.r),
-              cvRound(kOrientationRadius * octaveSigma), kOrientationSigmaFactor * octaveSigma,
-              hist);
-          const float threshold = highest * kOrientationPeakRatio;
-          const int n = kOrientationBins;
-          for (int j = 0; j < n; ++j) {
-            const int left = j > 0 ? j - 1 : n - 1, right = j < n - 1 ? j + 1 : 0;
-            if (hist[j] > hist[left] && hist[j] > hist[right] && hist[j] >= threshold) {
-              // Parabolic peak interpolation between neighbouring bins.
-              float bin = j + 0.5f * (hist[left] - hist[right]) /
-                                  (hist[left] - 2 * hist[j] + hist[right]);
-              bin = bin < 0 ? n + bin : bin >= n ? bin - n : bin;
-              kp.angle = 360.f - (360.f / n) * bin;
-              if (std::abs(kp.angle - 360.f) < FLT_EPSILON) kp.angle = 0.f;
-              keypoints.push_back(kp);
-            }
-          }
-        }
+    // Orientations: every histogram peak within 80% of the highest.
+    const float highest = orientationHistogram(
+        space.gaussian(o, e.layer), cv::Point(e.c, e.r),
+        cvRound(kOrientationRadius * octaveSigma), kOrientationSigmaFactor * octaveSigma,
+        hist);
+    const float threshold = highest * kOrientationPeakRatio;
+    const int n = kOrientationBins;
+    for (int j = 0; j < n; ++j) {
+      const int left = j > 0 ? j - 1 : n - 1, right = j < n - 1 ? j + 1 : 0;
+      if (hist[j] > hist[left] && hist[j] > hist[right] && hist[j] >= threshold) {
+        // Parabolic peak interpolation between neighbouring bins.
+        float bin = j + 0.5f * (hist[left] - hist[right]) /
+                            (hist[left] - 2 * hist[j] + hist[right]);
+        bin = bin < 0 ? n + bin : bin >= n ? bin - n : bin;
+        kp.angle = 360.f - (360.f / n) * bin;
+        if (std::abs(kp.angle - 360.f) < FLT_EPSILON) kp.angle = 0.f;
+        keypoints.push_back(kp);
       }
     }
+  };
+  const int cEnd = cols - kImageBorder;
+  std::vector<uchar> candidate(cols, 0);
+  for (r = task.rowBegin; r < task.rowEnd; ++r) {
+    row = dog.ptr<float>(r);
+    // Cheapest tests first, branch-free so the compiler vectorises them: the
+    // threshold and the two horizontal neighbours; only columns that pass get the
+    // full test.
+    for (int c = kImageBorder; c < cEnd; ++c) {
+      const float v = row[c], left = row[c - 1], right = row[c + 1];
+      candidate[c] = uchar((v > preThreshold) & (v >= left) & (v >= right)) |
+                     uchar((v < -preThreshold) & (v <= left) & (v <= right));
+    }
+    for (int c = kImageBorder; c < cEnd; ++c)
+      if (candidate[c]) searchColumn(c);
   }
   return keypoints;
 }

@@ -29,15 +29,26 @@ struct SliceNeighbourhood {
   double slopeStep = 0;  // spacing of the slope grid (0 for a single slice)
 };
 
-/// Finds the keypoints of slice k: samples with |D| above half the contrast
-/// threshold that are >= (maxima) or <= (minima) all 80 neighbours of their
-/// 3x3x3x3 (x, y, scale, slope) neighbourhood (ties pass, as in cv::SIFT), refined as SIFT in (x, y, scale) and
-/// by a parabola in slope, kept if their contrast and edge tests pass and they fall
-/// inside `mask` (if not empty), with one keypoint per dominant orientation.
-/// Keypoints are in centre-view pixels, octave packed as cv::SIFT, class_id the slope.
-/// The order is deterministic (octave, layer, row, column, orientation peak).
-std::vector<cv::KeyPoint> findSliceKeypoints(const SliceNeighbourhood& slices,
-                                             const DetectParams& params, const cv::Mat& mask);
+/// One unit of the extrema search: rows [rowBegin, rowEnd) of DoG layer `layer`
+/// of octave `o` of one slice. Tasks split the work evenly across threads; their
+/// order (octave, layer, row) fixes the order of the keypoints.
+struct SearchTask {
+  int o, layer, rowBegin, rowEnd;
+};
+
+/// The search tasks of one slice's scale space, about `rowsPerTask` rows each.
+std::vector<SearchTask> searchTasks(const ScaleSpace& space, int rowsPerTask);
+
+/// Finds the keypoints of one search task of slice k: samples with |D| above half
+/// the contrast threshold that are >= (maxima) or <= (minima) all 80 neighbours of
+/// their 3x3x3x3 (x, y, scale, slope) neighbourhood (ties pass, as in cv::SIFT),
+/// refined as SIFT in (x, y, scale) and by a parabola in slope, kept if their
+/// contrast and edge tests pass and they fall inside `mask` (if not empty), with one
+/// keypoint per dominant orientation. Keypoints are in centre-view pixels, octave
+/// packed as cv::SIFT, class_id the slope; in (row, column, orientation peak) order.
+std::vector<cv::KeyPoint> findKeypoints(const SliceNeighbourhood& slices,
+                                        const DetectParams& params, const cv::Mat& mask,
+                                        const SearchTask& task);
 
 /// Unpacks cv::SIFT's keypoint octave field into (octave index o >= 0 of our
 /// pyramid, layer). Returns false if it names an octave or layer the pyramid lacks.

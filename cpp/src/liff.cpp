@@ -241,7 +241,7 @@ int nearestSlice(const std::vector<double>& slopes, double slope) {
 // Builds the scale spaces of the listed slices in parallel (one task per slice).
 void buildSlices(const LightField& lf, const std::vector<double>& slopes,
                  const std::vector<int>& which, int layers, double sigma, int octaves,
-                 std::map<int, std::shared_ptr<ScaleSpace>>& window) {
+                 bool detectionOnly, std::map<int, std::shared_ptr<ScaleSpace>>& window) {
   // Every slice is topped up to the largest interpolation blur of the grid.
   cv::Vec2d target(0, 0);
   for (double slope : slopes) {
@@ -259,11 +259,14 @@ void buildSlices(const LightField& lf, const std::vector<double>& slopes,
       detail::StageTimer timer(detail::kScaleSpace);
       const cv::Vec2d variance = detail::interpolationVariance(lf.T, lf.S, slopes[which[j]]);
       built[j] = std::make_shared<ScaleSpace>(
-          detail::buildScaleSpace(slice, layers, sigma, octaves, variance, target));
+          detail::buildScaleSpace(slice, layers, sigma, octaves, variance, target, detectionOnly));
     }
   });
   for (size_t j = 0; j < which.size(); ++j) window[which[j]] = built[j];
 }
+
+// Rows of one octave image that one extrema-search task covers.
+constexpr int kRowsPerSearchTask = 32;
 
 // Slices processed together: enough to keep every thread busy, few enough to
 // bound memory at (batch + 2) scale spaces. Results do not depend on it.
@@ -335,7 +338,7 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
       const std::vector<int> slices(needed.begin() + first,
                                     needed.begin() + std::min(needed.size(), first + batch));
       window.clear();
-      buildSlices(lf, slopes, slices, nOctaveLayers_, sigma_, octaves, window);
+      buildSlices(lf, slopes, slices, nOctaveLayers_, sigma_, octaves, false, window);
       std::vector<cv::KeyPoint> group;
       std::vector<int> groupSlice, rows;
       for (size_t j = 0; j < kept.size(); ++j)
@@ -364,11 +367,22 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
     std::vector<int> missing;
     for (int k = std::max(0, k0 - 1); k < std::min(M, k1 + 1); ++k)
       if (!window.count(k)) missing.push_back(k);
-    buildSlices(lf, slopes, missing, nOctaveLayers_, sigma_, octaves, window);
+    buildSlices(lf, slopes, missing, nOctaveLayers_, sigma_, octaves, true, window);
 
-    std::vector<std::vector<cv::KeyPoint>> found(k1 - k0);
-    cv::parallel_for_(cv::Range(k0, k1), [&](const cv::Range& range) {
-      for (int k = range.start; k < range.end; ++k) {
+    // Search the batch as fixed row-stripe tasks over all its slices, octaves and
+    // layers, so both cores stay busy; results are gathered in task order.
+    struct Job {
+      int slice;
+      detail::SearchTask task;
+    };
+    std::vector<Job> jobs;
+    for (int k = k0; k < k1; ++k)
+      for (const detail::SearchTask& task : detail::searchTasks(*window.at(k), kRowsPerSearchTask))
+        jobs.push_back({k, task});
+    std::vector<std::vector<cv::KeyPoint>> found(jobs.size());
+    cv::parallel_for_(cv::Range(0, int(jobs.size())), [&](const cv::Range& range) {
+      for (int j = range.start; j < range.end; ++j) {
+        const int k = jobs[j].slice;
         detail::SliceNeighbourhood slices;
         slices.here = window.at(k).get();
         slices.below = k > 0 ? window.at(k - 1).get() : nullptr;
@@ -376,12 +390,12 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
         slices.slope = slopes[k];
         slices.slopeStep = step;
         detail::StageTimer timer(detail::kExtrema);
-        found[k - k0] = detail::findSliceKeypoints(slices, params, mask);
+        found[j] = detail::findKeypoints(slices, params, mask, jobs[j].task);
       }
     });
     const size_t first = keypoints.size();
-    for (int k = k0; k < k1; ++k)
-      keypoints.insert(keypoints.end(), found[k - k0].begin(), found[k - k0].end());
+    for (const std::vector<cv::KeyPoint>& part : found)
+      keypoints.insert(keypoints.end(), part.begin(), part.end());
     if (wantDescriptors && keypoints.size() > first) {
       // Describe the whole batch in one parallel loop, each keypoint on the slice
       // nearest its slope (within one of its detection slice, so in the window).

@@ -13,7 +13,7 @@ int numOctaves(cv::Size viewSize) {
 }
 
 ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
-                           cv::Vec2d variance, cv::Vec2d targetVariance) {
+                           cv::Vec2d variance, cv::Vec2d targetVariance, bool detectionOnly) {
   CV_Assert(slice.type() == CV_32F && layers >= 1 && octaves >= 1);
   ScaleSpace space;
   space.octaves = octaves;
@@ -58,6 +58,9 @@ ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int o
     for (int i = 0; i < layers + 2; ++i)
       cv::subtract(space.gaussian(o, i + 1), space.gaussian(o, i),
                    space.dogs[size_t(o) * (layers + 2) + i]);
+    if (detectionOnly)  // keypoints sit in layers [1, layers]; the next octave needs `layers`
+      for (int i : {0, layers + 1, layers + 2})
+        space.gaussians[size_t(o) * (layers + 3) + i].release();
   }
   return space;
 }

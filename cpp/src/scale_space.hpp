@@ -41,8 +41,12 @@ struct ScaleSpace {
 /// a single view). The base blur tops the slice up to the target, so every slice
 /// carries the same blur, and counts the target as blur already present:
 ///   base^2 = max(sigma^2 - (2 * 0.5)^2 - 4 * target, 0.01) + 4 * (target - variance).
+///
+/// With `detectionOnly`, the Gaussians no detected keypoint can use (layers 0,
+/// layers + 1 and layers + 2 of each octave) are released once the DoGs are made.
 ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
-                           cv::Vec2d variance = {}, cv::Vec2d targetVariance = {});
+                           cv::Vec2d variance = {}, cv::Vec2d targetVariance = {},
+                           bool detectionOnly = false);
 
 /// Octave-image coordinate -> centre-view pixel coordinate, for octave index o
 /// (0-based). Octave pixel x sits at base pixel x * 2^o (decimation keeps even

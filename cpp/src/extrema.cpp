@@ -1,6 +1,7 @@
 #include "extrema.hpp"
 
 #include "descriptor.hpp"
+#include "hot_loop.hpp"
 #include "profile.hpp"
 
 #include <liff/liff.hpp>
@@ -32,6 +33,18 @@ inline bool beats3x3(float v, bool isMax, const cv::Mat& dog, int r, int c, bool
     }
   }
   return true;
+}
+
+// Marks the columns of a DoG row that pass the cheapest tests: |v| above the
+// pre-threshold and >= (<= for minima) its two horizontal neighbours. Branch-free,
+// so it vectorises.
+LIFF_HOT_LOOP void markCandidates(const float* row, int begin, int end, float threshold,
+                                  uchar* candidate) {
+  for (int c = begin; c < end; ++c) {
+    const float v = row[c], left = row[c - 1], right = row[c + 1];
+    candidate[c] = uchar((v > threshold) & (v >= left) & (v >= right)) |
+                   uchar((v < -threshold) & (v <= left) & (v <= right));
+  }
 }
 
 // Whether dog(o, i) of `here` at (r, c) beats all of its 80 neighbours (26 in its
@@ -224,14 +237,8 @@ std::vector<cv::KeyPoint> findKeypoints(const SliceNeighbourhood& slices,
   std::vector<uchar> candidate(cols, 0);
   for (r = task.rowBegin; r < task.rowEnd; ++r) {
     row = dog.ptr<float>(r);
-    // Cheapest tests first, branch-free so the compiler vectorises them: the
-    // threshold and the two horizontal neighbours; only columns that pass get the
-    // full test.
-    for (int c = kImageBorder; c < cEnd; ++c) {
-      const float v = row[c], left = row[c - 1], right = row[c + 1];
-      candidate[c] = uchar((v > preThreshold) & (v >= left) & (v >= right)) |
-                     uchar((v < -preThreshold) & (v <= left) & (v <= right));
-    }
+    // Cheapest tests first; only columns that pass get the full test.
+    markCandidates(row, kImageBorder, cEnd, preThreshold, candidate.data());
     for (int c = kImageBorder; c < cEnd; ++c)
       if (candidate[c]) searchColumn(c);
   }

@@ -1,5 +1,7 @@
 #include "focal_stack.hpp"
 
+#include "hot_loop.hpp"
+
 #include <cmath>
 
 namespace liff {
@@ -23,7 +25,7 @@ struct Shift {
 // Adds one view row, sampled at x + shift for every x, into `sum` with the bilinear
 // weights (1 - frac, frac); taps outside the row are skipped. Interior columns take
 // both taps without tests; the few columns near the borders test each tap.
-void accumulateRow(const float* src, int U, Shift shift, float* sum) {
+LIFF_HOT_LOOP void accumulateRow(const float* src, int U, Shift shift, float* sum) {
   const float w0 = 1.f - shift.frac, w1 = shift.frac;
   // Interior: 0 <= x + whole and x + whole + 1 <= U - 1.
   const int begin = std::min(U, std::max(0, -shift.whole));
@@ -37,6 +39,11 @@ void accumulateRow(const float* src, int U, Shift shift, float* sum) {
   const float* s0 = src + shift.whole;
   for (int x = begin; x < end; ++x) sum[x] += w0 * s0[x] + w1 * s0[x + 1];
   for (int x = end; x < U; ++x) edge(x);
+}
+
+// sum[x] += weight * row[x]: the vertical taps.
+LIFF_HOT_LOOP void addScaled(const float* row, float weight, int U, float* sum) {
+  for (int x = 0; x < U; ++x) sum[x] += weight * row[x];
 }
 
 // Total bilinear weight that falls inside [0, n) at each position p, over all shifts:
@@ -111,11 +118,11 @@ void renderFocalSlice(const LightField& lf, double slope, cv::Mat& slice) {
           const int y0 = y + yShift[t].whole;
           if (y0 >= r0 && y0 < r1) {
             const float* h = rows.data() + size_t(y0 - r0) * U;
-            for (int x = 0; x < U; ++x) out[x] += w0 * h[x];
+            addScaled(h, w0, U, out);
           }
           if (y0 + 1 >= r0 && y0 + 1 < r1 && w1 > 0.f) {
             const float* h = rows.data() + size_t(y0 + 1 - r0) * U;
-            for (int x = 0; x < U; ++x) out[x] += w1 * h[x];
+            addScaled(h, w1, U, out);
           }
         }
       }

@@ -1,0 +1,10 @@
+// LIFF_HOT_LOOP: builds a small hot loop for AVX2 as well as the x86-64 baseline and
+// picks the version at run time (GCC/Clang function multiversioning on Linux).
+// AVX2 without FMA keeps every result bit-identical to the baseline build.
+#pragma once
+
+#if defined(__x86_64__) && defined(__linux__) && (defined(__GNUC__) || defined(__clang__))
+#define LIFF_HOT_LOOP __attribute__((target_clones("avx2", "default")))
+#else
+#define LIFF_HOT_LOOP
+#endif

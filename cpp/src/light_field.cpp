@@ -3,6 +3,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <string>
+#include <vector>
 
 namespace liff {
 namespace detail {
@@ -113,13 +114,26 @@ LightField toGreyLightField(const cv::Mat& input) {
   }
 
   if (depth == CV_32F || depth == CV_64F) {
-    cv::Point bad;
-    // For 64F input a finite value can still overflow float; check the converted data.
-    if (!cv::checkRange(grey, true, &bad))
-      CV_Error(cv::Error::StsBadArg,
-               cv::format("LiFF: the light field holds a NaN or infinite value (grey row %d, "
-                          "column %d); expected finite values, nominally in [0, 1]",
-                          bad.y, bad.x));
+    // For 64F input a finite value can still overflow float; check the converted
+    // data, view by view in parallel, and report the first bad row.
+    std::vector<int> badRow(size_t(lf.T) * lf.S, -1), badCol(size_t(lf.T) * lf.S, -1);
+    cv::parallel_for_(cv::Range(0, lf.T * lf.S), [&](const cv::Range& range) {
+      for (int v = range.start; v < range.end; ++v) {
+        cv::Point bad;
+        if (!cv::checkRange(grey.rowRange(v * lf.V, (v + 1) * lf.V), true, &bad)) {
+          badRow[v] = v * lf.V + bad.y;
+          badCol[v] = bad.x;
+        }
+      }
+    });
+    for (size_t v = 0; v < badRow.size(); ++v)
+      if (badRow[v] >= 0)
+        CV_Error(cv::Error::StsBadArg,
+                 cv::format("LiFF: the light field holds a NaN or infinite value (view %d, "
+                            "t = %d, s = %d, pixel row %d, column %d); expected finite values, "
+                            "nominally in [0, 1]",
+                            int(v), int(v) / lf.S, int(v) % lf.S, badRow[v] - int(v) * lf.V,
+                            badCol[v]));
   }
   lf.views = grey;
   return lf;

@@ -238,7 +238,7 @@ int nearestSlice(const std::vector<double>& slopes, double slope) {
   return int(std::min<long>(long(slopes.size()) - 1, std::max<long>(0, index)));
 }
 
-// Builds the scale spaces of the listed slices in parallel (one task per slice).
+// Builds the scale spaces of the listed slices.
 void buildSlices(const LightField& lf, const std::vector<double>& slopes,
                  const std::vector<int>& which, int layers, double sigma, int octaves,
                  bool detectionOnly, std::map<int, std::shared_ptr<ScaleSpace>>& window) {
@@ -248,36 +248,44 @@ void buildSlices(const LightField& lf, const std::vector<double>& slopes,
     const cv::Vec2d v = detail::interpolationVariance(lf.T, lf.S, slope);
     target = cv::Vec2d(std::max(target[0], v[0]), std::max(target[1], v[1]));
   }
-  std::vector<std::shared_ptr<ScaleSpace>> built(which.size());
-  cv::parallel_for_(cv::Range(0, int(which.size())), [&](const cv::Range& range) {
-    for (int j = range.start; j < range.end; ++j) {
-      cv::Mat slice;
-      {
-        detail::StageTimer timer(detail::kFocalStack);
-        detail::renderFocalSlice(lf, slopes[which[j]], slice);
-      }
-      detail::StageTimer timer(detail::kScaleSpace);
-      const cv::Vec2d variance = detail::interpolationVariance(lf.T, lf.S, slopes[which[j]]);
-      built[j] = std::make_shared<ScaleSpace>(
-          detail::buildScaleSpace(slice, layers, sigma, octaves, variance, target, detectionOnly));
+  auto build = [&](int k) {
+    cv::Mat slice;
+    {
+      detail::StageTimer timer(detail::kFocalStack);
+      detail::renderFocalSlice(lf, slopes[k], slice);
     }
+    detail::StageTimer timer(detail::kScaleSpace);
+    const cv::Vec2d variance = detail::interpolationVariance(lf.T, lf.S, slopes[k]);
+    return std::make_shared<ScaleSpace>(detail::buildScaleSpace(
+        slice, layers, sigma, octaves, variance, target, detectionOnly));
+  };
+  // Whole rounds of one slice per thread run in parallel (each slice serial inside);
+  // the remainder is built one slice at a time with the parallelism inside it
+  // (row-parallel shift-and-sum and blurs), so no thread idles.
+  const int threads = std::max(1, cv::getNumThreads());
+  const int n = int(which.size()), parallelCount = n - n % threads;
+  std::vector<std::shared_ptr<ScaleSpace>> built(n);
+  cv::parallel_for_(cv::Range(0, parallelCount), [&](const cv::Range& range) {
+    for (int j = range.start; j < range.end; ++j) built[j] = build(which[j]);
   });
-  for (size_t j = 0; j < which.size(); ++j) window[which[j]] = built[j];
+  for (int j = parallelCount; j < n; ++j) built[j] = build(which[j]);
+  for (int j = 0; j < n; ++j) window[which[j]] = built[j];
 }
 
 // Rows of one octave image that one extrema-search task covers.
 constexpr int kRowsPerSearchTask = 32;
 
-// Slices processed together: enough to keep every thread busy, few enough to
-// bound memory at (batch + 2) scale spaces. Results do not depend on it.
+// Slices searched together: one per thread, so that building their scale spaces
+// keeps every thread busy; memory stays at (batch + 2) scale spaces. Results do
+// not depend on it.
 int sliceBatch() { return std::max(1, cv::getNumThreads()); }
 
 void LiFF_Impl::describe(const std::vector<cv::KeyPoint>& keypoints,
                          const std::vector<int>& sliceOf,
                          const std::map<int, std::shared_ptr<ScaleSpace>>& window,
                          cv::Mat& descriptors) const {
+  detail::StageTimer timer(detail::kDescriptors);
   cv::parallel_for_(cv::Range(0, int(keypoints.size())), [&](const cv::Range& range) {
-    detail::StageTimer timer(detail::kDescriptors);
     float raw[detail::kDescriptorSize];
     for (int k = range.start; k < range.end; ++k) {
       const cv::KeyPoint& kp = keypoints[k];
@@ -380,6 +388,7 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
       for (const detail::SearchTask& task : detail::searchTasks(*window.at(k), kRowsPerSearchTask))
         jobs.push_back({k, task});
     std::vector<std::vector<cv::KeyPoint>> found(jobs.size());
+    detail::StageTimer searchTimer(detail::kExtrema);
     cv::parallel_for_(cv::Range(0, int(jobs.size())), [&](const cv::Range& range) {
       for (int j = range.start; j < range.end; ++j) {
         const int k = jobs[j].slice;
@@ -389,10 +398,10 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
         slices.above = k + 1 < M ? window.at(k + 1).get() : nullptr;
         slices.slope = slopes[k];
         slices.slopeStep = step;
-        detail::StageTimer timer(detail::kExtrema);
         found[j] = detail::findKeypoints(slices, params, mask, jobs[j].task);
       }
     });
+    searchTimer.stop();
     const size_t first = keypoints.size();
     for (const std::vector<cv::KeyPoint>& part : found)
       keypoints.insert(keypoints.end(), part.begin(), part.end());

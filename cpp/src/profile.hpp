@@ -1,5 +1,7 @@
-// Optional per-stage timing for benchmarks/speed.py: thread-summed seconds per
-// stage, off by default (one relaxed atomic load per timed block when off).
+// Optional per-stage timing for benchmarks/speed.py, off by default (one relaxed
+// atomic load per timed block when off). Stages are timed around their parallel
+// loops, so they are wall-clock seconds, except kRefinement (refinement and
+// orientations), which is timed inside the extrema search and summed over threads.
 #pragma once
 
 #include <array>
@@ -15,7 +17,7 @@ void setProfiling(bool enabled);
 bool profiling();
 void resetProfile();
 void addStageTime(Stage stage, std::chrono::steady_clock::duration elapsed);
-/// Seconds per stage, summed over threads. kExtrema excludes kRefinement.
+/// Seconds per stage (see above; kExtrema includes the refinement).
 std::array<double, kStageCount> stageSeconds();
 
 /// Adds the lifetime of this object to `stage` when profiling is on.
@@ -24,8 +26,11 @@ class StageTimer {
   explicit StageTimer(Stage stage) : stage_(stage), on_(profiling()) {
     if (on_) start_ = std::chrono::steady_clock::now();
   }
-  ~StageTimer() {
+  ~StageTimer() { stop(); }
+  /// Ends the timed block early.
+  void stop() {
     if (on_) addStageTime(stage_, std::chrono::steady_clock::now() - start_);
+    on_ = false;
   }
   StageTimer(const StageTimer&) = delete;
   StageTimer& operator=(const StageTimer&) = delete;

@@ -6,6 +6,31 @@
 
 namespace liff {
 namespace detail {
+namespace {
+
+// Rows per parallel task of a blur; fixed, so results never depend on the thread count.
+constexpr int kBlurRows = 32;
+
+// cv::GaussianBlur, split into row stripes run in parallel. OpenCV filters a
+// sub-matrix with the pixels of its parent beyond the stripe, so the result is
+// identical to one call on the whole image.
+void gaussianBlur(const cv::Mat& src, cv::Mat& dst, double sigmaX, double sigmaY) {
+  if (src.rows < 2 * kBlurRows) {
+    cv::GaussianBlur(src, dst, cv::Size(), sigmaX, sigmaY);
+    return;
+  }
+  dst.create(src.size(), src.type());
+  const int tasks = (src.rows + kBlurRows - 1) / kBlurRows;
+  cv::parallel_for_(cv::Range(0, tasks), [&](const cv::Range& range) {
+    for (int task = range.start; task < range.end; ++task) {
+      const int r0 = task * kBlurRows, r1 = std::min(src.rows, r0 + kBlurRows);
+      cv::Mat stripe = dst.rowRange(r0, r1);
+      cv::GaussianBlur(src.rowRange(r0, r1), stripe, cv::Size(), sigmaX, sigmaY);
+    }
+  });
+}
+
+}  // namespace
 
 int numOctaves(cv::Size viewSize) {
   const double baseMin = std::min(viewSize.width, viewSize.height) * std::ldexp(1.0, -kFirstOctave);
@@ -32,7 +57,7 @@ ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int o
     blur[axis] = std::sqrt(std::max(sigma * sigma - present2, 0.01) + topUp);
   }
   cv::resize(slice, base, cv::Size(), upsample, upsample, cv::INTER_LINEAR);
-  cv::GaussianBlur(base, space.gaussians[0], cv::Size(), blur[0], blur[1]);
+  gaussianBlur(base, space.gaussians[0], blur[0], blur[1]);
 
   // Incremental blurs: sigma_i^2 = (k^i sigma)^2 - (k^(i-1) sigma)^2.
   std::vector<double> increment(layers + 3);
@@ -52,7 +77,7 @@ ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int o
         const cv::Mat& src = space.gaussian(o - 1, layers);
         cv::resize(src, dst, cv::Size(src.cols / 2, src.rows / 2), 0, 0, cv::INTER_NEAREST);
       } else {
-        cv::GaussianBlur(space.gaussian(o, i - 1), dst, cv::Size(), increment[i], increment[i]);
+        gaussianBlur(space.gaussian(o, i - 1), dst, increment[i], increment[i]);
       }
     }
     for (int i = 0; i < layers + 2; ++i)

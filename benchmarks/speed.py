@@ -104,14 +104,12 @@ def main(argv=None) -> int:
     wall = time.perf_counter() - start
     stages = core._stage_seconds()
     core._set_profiling(False)
-    refinement = stages.pop("refinement")
-    print(f"\nper-stage breakdown (wall seconds of one detectAndCompute of {wall:.3f} s; "
-          f"the rest is input conversion, sorting and the Python layer):")
-    print("| stage | seconds | share of the call |\n|---|---|---|")
+    total = sum(stages.values())
+    print(f"\nper-stage breakdown of one detectAndCompute (wall {wall:.3f} s), in thread-seconds "
+          f"(summed over threads; {total:.3f} s in all):")
+    print("| stage | thread-seconds | share |\n|---|---|---|")
     for name, seconds in stages.items():
-        print(f"| {name} | {seconds:.3f} | {100 * seconds / wall:.0f}% |")
-    print(f"(of the extrema stage, refinement and orientations took {refinement:.3f} s "
-          f"summed over threads)")
+        print(f"| {name} | {seconds:.3f} | {100 * seconds / total:.0f}% |")
 
     print(f"\npeak memory of this process so far (ru_maxrss): {peak_rss_mb():.0f} MB   "
           f"(target <= 400; the light field itself is {lf.nbytes / 2**20:.0f} MB)")

@@ -284,8 +284,8 @@ void LiFF_Impl::describe(const std::vector<cv::KeyPoint>& keypoints,
                          const std::vector<int>& sliceOf,
                          const std::map<int, std::shared_ptr<ScaleSpace>>& window,
                          cv::Mat& descriptors) const {
-  detail::StageTimer timer(detail::kDescriptors);
   cv::parallel_for_(cv::Range(0, int(keypoints.size())), [&](const cv::Range& range) {
+    detail::StageTimer timer(detail::kDescriptors);
     float raw[detail::kDescriptorSize];
     for (int k = range.start; k < range.end; ++k) {
       const cv::KeyPoint& kp = keypoints[k];
@@ -388,7 +388,6 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
       for (const detail::SearchTask& task : detail::searchTasks(*window.at(k), kRowsPerSearchTask))
         jobs.push_back({k, task});
     std::vector<std::vector<cv::KeyPoint>> found(jobs.size());
-    detail::StageTimer searchTimer(detail::kExtrema);
     cv::parallel_for_(cv::Range(0, int(jobs.size())), [&](const cv::Range& range) {
       for (int j = range.start; j < range.end; ++j) {
         const int k = jobs[j].slice;
@@ -398,10 +397,10 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
         slices.above = k + 1 < M ? window.at(k + 1).get() : nullptr;
         slices.slope = slopes[k];
         slices.slopeStep = step;
+        detail::StageTimer timer(detail::kExtrema);
         found[j] = detail::findKeypoints(slices, params, mask, jobs[j].task);
       }
     });
-    searchTimer.stop();
     const size_t first = keypoints.size();
     for (const std::vector<cv::KeyPoint>& part : found)
       keypoints.insert(keypoints.end(), part.begin(), part.end());

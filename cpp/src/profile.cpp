@@ -20,6 +20,7 @@ void addStageTime(Stage stage, std::chrono::steady_clock::duration elapsed) {
 std::array<double, kStageCount> stageSeconds() {
   std::array<double, kStageCount> seconds{};
   for (int i = 0; i < kStageCount; ++i) seconds[i] = gNanoseconds[i].load() * 1e-9;
+  seconds[kExtrema] -= seconds[kRefinement];  // refinement is timed inside the search
   return seconds;
 }
 

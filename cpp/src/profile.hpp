@@ -1,7 +1,7 @@
 // Optional per-stage timing for benchmarks/speed.py, off by default (one relaxed
-// atomic load per timed block when off). Stages are timed around their parallel
-// loops, so they are wall-clock seconds, except kRefinement (refinement and
-// orientations), which is timed inside the extrema search and summed over threads.
+// atomic load per timed block when off). Blocks are timed inside the parallel
+// loops, so stages are thread-seconds (summed over threads). A slice built alone
+// with row-parallel blurs counts the wall time of its calling thread.
 #pragma once
 
 #include <array>
@@ -17,7 +17,7 @@ void setProfiling(bool enabled);
 bool profiling();
 void resetProfile();
 void addStageTime(Stage stage, std::chrono::steady_clock::duration elapsed);
-/// Seconds per stage (see above; kExtrema includes the refinement).
+/// Thread-seconds per stage (see above); kExtrema excludes kRefinement.
 std::array<double, kStageCount> stageSeconds();
 
 /// Adds the lifetime of this object to `stage` when profiling is on.

@@ -192,3 +192,34 @@ def test_compute_rejects_non_keypoints(detector, blob_lf):
 def test_use_provided_keypoints_is_refused(detector, blob_lf):
     with pytest.raises(ValueError, match="compute"):
         detector.detectAndCompute(blob_lf, None, None, True)
+
+
+@pytest.mark.parametrize("angle", [-1.0, -400.0, 359.9999, 360.0, 1e6, -1e6])
+def test_compute_accepts_any_angle(angle):
+    """cv2.KeyPoint's default angle is -1; angles outside [0, 360) describe as their
+    value modulo 360 (this overflowed the descriptor histogram once)."""
+    img = np.tile(np.linspace(0, 1, 64, dtype=np.float32), (64, 1))
+    img = img + 0.2 * np.sin(np.arange(64, dtype=np.float32) / 3.0)[:, None]
+    detector = liff.LiFF.create()
+    kps, desc = detector.compute(img, [cv2.KeyPoint(32, 30, 6, angle)])
+    assert len(kps) == 1 and desc.shape == (1, 128)
+    assert 0 < np.linalg.norm(desc) < 600
+    reduced = float(np.fmod(angle, 360.0)) % 360.0
+    _, expected = detector.compute(img, [cv2.KeyPoint(32, 30, 6, reduced)])
+    assert np.abs(desc.astype(int) - expected.astype(int)).max() <= 1
+
+
+def test_compute_far_and_huge_keypoints_do_not_crash():
+    img = np.random.default_rng(0).random((48, 48)).astype(np.float32)
+    kps = [cv2.KeyPoint(1e5, -1e5, 10), cv2.KeyPoint(24, 24, 2e6), cv2.KeyPoint(1e30, 1, 3),
+           cv2.KeyPoint(24, 24, 4)]
+    out, desc = liff.LiFF.create().compute(img, kps)
+    # Out-of-image keypoints are described (as cv2.SIFT does, with what little of their
+    # window falls inside); coordinates or sizes of 1e6 and more are dropped.
+    assert [k.pt for k in out] == [(1e5, -1e5), (24.0, 24.0)]
+    assert desc.shape == (2, 128)
+
+
+def test_automatic_slope_count_is_bounded():
+    with pytest.raises(ValueError, match="axis order"):
+        liff.LiFF.create().slopesFor(1, 100000)

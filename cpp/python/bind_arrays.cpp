@@ -2,6 +2,7 @@
 
 #include "profile.hpp"
 
+#include <cfloat>
 #include <climits>
 #include <cmath>
 #include <cstring>
@@ -94,8 +95,11 @@ std::vector<cv::KeyPoint> keypointsFromArray(const py::array& rows) {
     if (!(std::abs(octave) <= INT_MAX && std::abs(classId) <= INT_MAX))
       throw py::value_error("keypoint " + std::to_string(i) +
                             " has an octave or class_id outside the int range");
-    keypoints[size_t(i)] = cv::KeyPoint(float(r(i, 0)), float(r(i, 1)), float(r(i, 2)),
-                                        float(r(i, 3)), float(r(i, 4)), int(octave), int(classId));
+    // Values beyond float range become NaN (such keypoints are dropped by compute()).
+    auto toFloat = [](double v) { return std::abs(v) <= FLT_MAX ? float(v) : NAN; };
+    keypoints[size_t(i)] = cv::KeyPoint(toFloat(r(i, 0)), toFloat(r(i, 1)), toFloat(r(i, 2)),
+                                        toFloat(r(i, 3)), toFloat(r(i, 4)), int(octave),
+                                        int(classId));
   }
   return keypoints;
 }

@@ -13,9 +13,9 @@ float orientationHistogram(const cv::Mat& image, cv::Point centre, int radius, f
                            float* hist) {
   const int n = kOrientationBins;
   const float expScale = -1.f / (2.f * sigma * sigma);
-  const int side = 2 * radius + 1, capacity = side * side;
+  const size_t side = size_t(2 * radius + 1), capacity = side * side;
   // Gather the gradients first, then take exp / atan2 / magnitude in vectorised batches.
-  cv::AutoBuffer<float> buffer(size_t(capacity) * 4 + n + 4);
+  cv::AutoBuffer<float> buffer(capacity * 4 + n + 4);
   float *X = buffer.data(), *Y = X + capacity, *W = Y + capacity, *A = W + capacity;
   float* temp = A + capacity + 2;  // two guard bins each side for circular smoothing
   int count = 0;
@@ -73,21 +73,23 @@ void rawDescriptor(const cv::Mat& image, cv::Point2f point, float angleDegrees, 
   const float cosT = std::cos(angle) / cellWidth, sinT = std::sin(angle) / cellWidth;
 
   // Gather samples inside the rotated grid, then take exp / atan2 / magnitude in
-  // vectorised batches (as cv::SIFT), then spread them trilinearly.
-  const int side = 2 * radius + 1, capacity = side * side;
-  cv::AutoBuffer<float> buffer(size_t(capacity) * 6);
+  // vectorised batches (as cv::SIFT), then spread them trilinearly. Only samples in
+  // the image interior (0 < y, x < size - 1) count, so the window is clipped to it.
+  const int iBegin = std::max(-radius, 1 - centre.y), iEnd = std::min(radius, image.rows - 2 - centre.y);
+  const int jBegin = std::max(-radius, 1 - centre.x), jEnd = std::min(radius, image.cols - 2 - centre.x);
+  const size_t capacity = std::max<size_t>(
+      1, size_t(std::max(0, iEnd - iBegin + 1)) * size_t(std::max(0, jEnd - jBegin + 1)));
+  cv::AutoBuffer<float> buffer(capacity * 6);
   float *X = buffer.data(), *Y = X + capacity, *W = Y + capacity, *R = W + capacity,
         *C = R + capacity, *O = C + capacity;
   int count = 0;
-  for (int i = -radius; i <= radius; ++i) {
+  for (int i = iBegin; i <= iEnd; ++i) {
     const int y = centre.y + i;
-    if (y <= 0 || y >= image.rows - 1) continue;
     const float* row = image.ptr<float>(y);
     const float* up = image.ptr<float>(y - 1);
     const float* down = image.ptr<float>(y + 1);
-    for (int j = -radius; j <= radius; ++j) {
+    for (int j = jBegin; j <= jEnd; ++j) {
       const int x = centre.x + j;
-      if (x <= 0 || x >= image.cols - 1) continue;
       // Sample offset in the keypoint's rotated frame, in cell units.
       const float cRot = j * cosT - i * sinT, rRot = j * sinT + i * cosT;
       const float rBin = rRot + d / 2 - 0.5f, cBin = cRot + d / 2 - 0.5f;
@@ -117,7 +119,7 @@ void rawDescriptor(const cv::Mat& image, cv::Point2f point, float angleDegrees, 
     rBin -= r0;
     cBin -= c0;
     oBin -= o0;
-    o0 = o0 < 0 ? o0 + n : o0 >= n ? o0 - n : o0;
+    o0 = ((o0 % n) + n) % n;
     const float vR1 = magnitude * rBin, vR0 = magnitude - vR1;
     const float vRC11 = vR1 * cBin, vRC10 = vR1 - vRC11;
     const float vRC01 = vR0 * cBin, vRC00 = vR0 - vRC01;

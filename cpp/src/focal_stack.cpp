@@ -11,11 +11,17 @@ namespace {
 // Rows of the slice one parallel task renders; fixed, so results never depend on threads.
 constexpr int kRowsPerTask = 16;
 
+// Largest shift we represent (light field sides are at most 2^20).
+constexpr double kMaxShift = double(1 << 22);
+
 // Integer and fractional parts of a view's shift: sample x + shift = x + whole + frac.
 struct Shift {
   int whole;
   float frac;  // in [0, 1)
   explicit Shift(double shift) {
+    // A view shifted beyond any view size contributes nothing; clamping keeps the
+    // integer arithmetic below far from overflow.
+    shift = std::min(kMaxShift, std::max(-kMaxShift, shift));
     const double w = std::floor(shift);
     whole = int(w);
     frac = float(shift - w);
@@ -126,7 +132,8 @@ void renderFocalSlice(const LightField& lf, double slope, cv::Mat& slice) {
           }
         }
       }
-      // Normalise by the weight that fell inside the views (>= 1/2 per axis).
+      // Normalise by the weight that fell inside the views (can be small where only
+// the edge of a few views reaches; near the centre it is at least 1 per axis).
       for (int y = yBegin; y < yEnd; ++y) {
         float* out = slice.ptr<float>(y);
         for (int x = 0; x < U; ++x) {

@@ -125,7 +125,13 @@ class LiFF_Impl : public LiFF {
                        firstSlope_, lastSlope_));
     if (T == 1 && S == 1) return detail::slopeGrid(firstSlope_, lastSlope_, 1);
     int n = numSlopes_;
-    if (n == 0) n = std::max(T, S) | 1;  // smallest odd number >= max(T, S)
+    if (n == 0) {
+      n = std::max(T, S) | 1;  // smallest odd number >= max(T, S)
+      require(n <= kMaxSlopes,
+              cv::format("numSlopes = 0 (automatic) would use %d slopes for %d x %d views; "
+                         "expected at most %d: check the axis order (T, S, V, U) or set "
+                         "numSlopes", n, T, S, kMaxSlopes));
+    }
     require(n == 1 || firstSlope_ < lastSlope_,
             cv::format("firstSlope = lastSlope = %g with numSlopes = %d; expected "
                        "firstSlope < lastSlope, or numSlopes = 1",
@@ -295,8 +301,11 @@ void LiFF_Impl::describe(const std::vector<cv::KeyPoint>& keypoints,
       const cv::Point2f pt(detail::viewToOctave(kp.pt.x, o), detail::viewToOctave(kp.pt.y, o));
       // Scale in octave pixels: size is a diameter in view pixels.
       const float scale = kp.size * 0.5f / std::ldexp(1.f, o + detail::kFirstOctave);
-      float angle = 360.f - kp.angle;
-      if (std::abs(angle - 360.f) < FLT_EPSILON) angle = 0.f;
+      // Descriptor rotation, reduced to [0, 360) whatever angle the keypoint carries
+      // (cv2.KeyPoint's default is -1).
+      float angle = std::fmod(360.f - kp.angle, 360.f);
+      if (angle < 0.f) angle += 360.f;
+      if (!(angle < 360.f) || std::abs(angle - 360.f) < FLT_EPSILON) angle = 0.f;
       detail::rawDescriptor(space.gaussian(o, layer), pt, angle, scale, raw);
       detail::finishDescriptor(raw, rootSift_, descriptors.row(k));
     }
@@ -428,13 +437,14 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
       if (!block.empty()) descriptors.push_back(block);
   }
 
-  // Sort as cv::SIFT does (x, y, size, angle; then response, octave, slope) and drop
-  // exact duplicates, which arise when two extrema refine to the same point.
+  // Sort by position, size, angle and slope (strongest first among equals) and drop
+  // exact duplicates, which arise when two extrema refine to the same point; the
+  // order then no longer depends on how the work was split.
   std::vector<int> order(keypoints.size());
   std::iota(order.begin(), order.end(), 0);
   auto key = [&](int i) {
     const cv::KeyPoint& k = keypoints[i];
-    return std::make_tuple(k.pt.x, k.pt.y, k.size, k.angle, -k.response, k.octave, k.class_id);
+    return std::make_tuple(k.pt.x, k.pt.y, k.size, k.angle, k.class_id, -k.response, k.octave);
   };
   std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return key(a) < key(b); });
   std::vector<int> unique;

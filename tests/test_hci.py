@@ -12,34 +12,18 @@ import numpy as np
 import pytest
 
 import liff
+from liff.io import read_hci
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "hci" / "cotton"
 CROP = slice(128, 384)  # rows and columns of each view
 
 
-def read_pfm(path: Path) -> np.ndarray:
-    """Reads a PFM image (rows stored bottom-up) as float32, top row first."""
-    with open(path, "rb") as f:
-        kind = f.readline().strip()
-        if kind not in (b"Pf", b"PF"):
-            raise ValueError(f"{path} is not a PFM file")
-        width, height = map(int, f.readline().split())
-        scale = float(f.readline())
-        channels = 3 if kind == b"PF" else 1
-        data = np.fromfile(f, dtype="<f4" if scale < 0 else ">f4", count=width * height * channels)
-    data = data.reshape(height, width, channels)[..., 0] if channels == 3 else data.reshape(height, width)
-    return np.flipud(data).astype(np.float32)
-
-
 @pytest.fixture(scope="module")
 def cotton():
-    names = [DATA / f"input_Cam{i:03d}.png" for i in range(81)]
-    gt_path = DATA / "gt_disp_lowres.pfm"
-    if not gt_path.is_file() or not all(n.is_file() for n in names):
+    if not DATA.is_dir():
         pytest.skip(f"HCI 'cotton' light field not found at {DATA}")
-    views = [cv2.imread(str(n), cv2.IMREAD_COLOR) for n in names]
-    lf = np.stack([np.stack([views[r * 9 + c][CROP, CROP] for c in range(9)]) for r in range(9)])
-    return lf, read_pfm(gt_path)
+    scene = read_hci(DATA)
+    return np.ascontiguousarray(scene.light_field[:, :, CROP, CROP]), scene.gt_disparity
 
 
 def test_ground_truth_is_sane(cotton):

@@ -14,7 +14,6 @@
 #include <climits>
 #include <tuple>
 #include <cmath>
-#include <functional>
 #include <map>
 #include <memory>
 #include <numeric>

@@ -134,7 +134,7 @@ def test_nested_lists_and_umat(texture_image):
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     T=st.integers(1, 4), S=st.integers(1, 4), V=st.integers(1, 40), U=st.integers(1, 40),
-    dtype=st.sampled_from(DTYPES), channels=st.sampled_from([0, 1, 3]),
+    dtype=st.sampled_from(DTYPES), channels=st.sampled_from([0, 1, 2, 3, 4]),
     seed=st.integers(0, 2**16),
 )
 def test_any_small_light_field_gives_valid_output(T, S, V, U, dtype, channels, seed):

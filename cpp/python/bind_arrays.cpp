@@ -14,7 +14,7 @@ namespace {
 
 const char* kShapes =
     "expected a light field of shape (T, S, V, U) or (T, S, V, U, C), or an image of "
-    "shape (V, U) or (V, U, C), with C = 1 (grey) or 3 (BGR)";
+    "shape (V, U) or (V, U, C), with C = 1 (grey), 2 (grey + alpha), 3 (BGR) or 4 (BGRA)";
 
 // OpenCV depth of a numpy dtype, or -1. Compares kind and size, not dtype object
 // identity (an equivalent dtype made by newbyteorder('=') is a different object);
@@ -53,7 +53,7 @@ cv::Mat lightFieldMat(const py::array& array) {
     throw py::value_error("light field has shape " + shapeOf(array) + "; " + kShapes);
   const bool hasChannels = ndim == 3 || ndim == 5;
   const py::ssize_t channels = hasChannels ? array.shape(ndim - 1) : 1;
-  if (channels != 1 && channels != 3)
+  if (channels < 1 || channels > 4)
     throw py::value_error("light field has shape " + shapeOf(array) + " (" +
                           std::to_string(channels) + " channels); " + kShapes);
   if (array.size() == 0)

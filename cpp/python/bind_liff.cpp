@@ -73,6 +73,9 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
   LIFF_BIND_PARAM(NumSlopes, int, "the number of slopes (0 = automatic).")
   LIFF_BIND_PARAM(DescriptorType, int, "the descriptor type, cv2.CV_32F or cv2.CV_8U.")
   LIFF_BIND_PARAM(RootSift, bool, "whether descriptors are RootSIFT-normalised.")
+  LIFF_BIND_PARAM(MemoryLimitMB, double,
+                  "the memory limit in MB (0 = automatic: the memory available; inf = none); "
+                  "a light field that cannot fit raises MemoryError before large allocations.")
 #undef LIFF_BIND_PARAM
 
   cls.def("slopesFor", [](const PyLiFF& s, int T, int S) { return s.impl->slopesFor(T, S); },

@@ -15,7 +15,8 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "Compiled core of liff (C++17, linked to the system OpenCV).";
   m.attr("SLOPE_SCALE") = liff::kSlopeScale;
 
-  // Argument errors from the core become ValueError; anything else RuntimeError.
+  // Argument errors from the core become ValueError, a light field too large for the
+  // memory limit MemoryError; anything else RuntimeError.
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -24,6 +25,8 @@ PYBIND11_MODULE(_core, m) {
       if (e.code == cv::Error::StsBadArg || e.code == cv::Error::StsBadSize ||
           e.code == cv::Error::StsOutOfRange || e.code == cv::Error::StsParseError)
         PyErr_SetString(PyExc_ValueError, message.c_str());
+      else if (e.code == cv::Error::StsNoMem)
+        PyErr_SetString(PyExc_MemoryError, message.c_str());
       else
         PyErr_SetString(PyExc_RuntimeError, e.what());
     }

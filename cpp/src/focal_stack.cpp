@@ -89,6 +89,42 @@ cv::Vec2d interpolationVariance(int T, int S, double slope) {
   return cv::Vec2d(meanVariance(S), meanVariance(T));
 }
 
+namespace {
+
+// One parallel task of the separable shift-and-sum: output rows [yBegin, yEnd) of
+//   out(x, y) = sum_t sum_j wy_tj * H_t(y + whole_t + j, x),
+//   H_t(r, x) = sum_s sum_i wx_si * D(t, s, r, x + whole_s + i),
+// unnormalised, for D = `views` (a LightField-layout Mat), into out's rows from
+// y - firstOutRow. H_t is built once per source row (in `rows`); only in-view taps count.
+void shiftAndSumRows(const LightField& lf, const cv::Mat& views, const std::vector<Shift>& xShift,
+                     const std::vector<Shift>& yShift, int yBegin, int yEnd,
+                     std::vector<float>& rows, cv::Mat& out, int firstOutRow) {
+  const int T = lf.T, S = lf.S, V = lf.V, U = lf.U;
+  for (int y = yBegin; y < yEnd; ++y) std::fill_n(out.ptr<float>(y - firstOutRow), U, 0.f);
+  for (int t = 0; t < T; ++t) {
+    // Source rows [r0, r1) of view row t feed output rows [yBegin, yEnd).
+    const int r0 = std::max(0, yBegin + yShift[t].whole);
+    const int r1 = std::min(V, yEnd + yShift[t].whole + 1);
+    if (r0 >= r1) continue;
+    rows.assign(size_t(r1 - r0) * U, 0.f);
+    for (int r = r0; r < r1; ++r) {
+      float* h = rows.data() + size_t(r - r0) * U;
+      for (int s = 0; s < S; ++s)
+        accumulateRow(views.ptr<float>((t * S + s) * V + r), U, xShift[s], h);
+    }
+    const float w0 = 1.f - yShift[t].frac, w1 = yShift[t].frac;
+    for (int y = yBegin; y < yEnd; ++y) {
+      float* dst = out.ptr<float>(y - firstOutRow);
+      const int y0 = y + yShift[t].whole;
+      if (y0 >= r0 && y0 < r1) addScaled(rows.data() + size_t(y0 - r0) * U, w0, U, dst);
+      if (y0 + 1 >= r0 && y0 + 1 < r1 && w1 > 0.f)
+        addScaled(rows.data() + size_t(y0 + 1 - r0) * U, w1, U, dst);
+    }
+  }
+}
+
+}  // namespace
+
 void renderFocalSlice(const LightField& lf, double slope, cv::Mat& slice) {
   const int T = lf.T, S = lf.S, V = lf.V, U = lf.U;
   slice.create(V, U, CV_32F);
@@ -96,48 +132,35 @@ void renderFocalSlice(const LightField& lf, double slope, cv::Mat& slice) {
   std::vector<Shift> xShift, yShift;
   for (int s = 0; s < S; ++s) xShift.emplace_back(-slope * (s - sc));
   for (int t = 0; t < T; ++t) yShift.emplace_back(-slope * (t - tc));
-  // The shifts are separable: every view of row t shares the vertical shift, so
-  //   F(x, y) = sum_t sum_j wy_tj * H_t(y + whole_t + j, x) / (Wx(x) * Wy(y)),
-  //   H_t(r, x) = sum_s sum_i wx_si * L(t, s, r, x + whole_s + i),
-  // with H_t built once per source row and only in-view taps counted in Wx, Wy.
-  const std::vector<float> wx = insideWeight(xShift, U), wy = insideWeight(yShift, V);
+  // Without alpha every sample weighs 1 and the weight that falls inside the views
+  // is separable, Wx(x) * Wy(y); with alpha it is the same shift-and-sum applied to
+  // the weights (the values are premultiplied), so F = sum(w L) / sum(w).
+  const bool weighted = !lf.weights.empty();
+  std::vector<float> wx, wy;
+  if (!weighted) {
+    wx = insideWeight(xShift, U);
+    wy = insideWeight(yShift, V);
+  }
 
   const int tasks = (V + kRowsPerTask - 1) / kRowsPerTask;
   cv::parallel_for_(cv::Range(0, tasks), [&](const cv::Range& range) {
     std::vector<float> rows;  // H_t for the source rows one task needs
+    cv::Mat weightSum;        // sum(w) for this task's rows (from yBegin), when weighted
     for (int task = range.start; task < range.end; ++task) {
       const int yBegin = task * kRowsPerTask, yEnd = std::min(V, yBegin + kRowsPerTask);
-      for (int y = yBegin; y < yEnd; ++y) std::fill_n(slice.ptr<float>(y), U, 0.f);
-      for (int t = 0; t < T; ++t) {
-        // Source rows [r0, r1) of view row t feed output rows [yBegin, yEnd).
-        const int r0 = std::max(0, yBegin + yShift[t].whole);
-        const int r1 = std::min(V, yEnd + yShift[t].whole + 1);
-        if (r0 >= r1) continue;
-        rows.assign(size_t(r1 - r0) * U, 0.f);
-        for (int r = r0; r < r1; ++r) {
-          float* h = rows.data() + size_t(r - r0) * U;
-          for (int s = 0; s < S; ++s) accumulateRow(lf.view(t, s) + size_t(r) * U, U, xShift[s], h);
-        }
-        const float w0 = 1.f - yShift[t].frac, w1 = yShift[t].frac;
-        for (int y = yBegin; y < yEnd; ++y) {
-          float* out = slice.ptr<float>(y);
-          const int y0 = y + yShift[t].whole;
-          if (y0 >= r0 && y0 < r1) {
-            const float* h = rows.data() + size_t(y0 - r0) * U;
-            addScaled(h, w0, U, out);
-          }
-          if (y0 + 1 >= r0 && y0 + 1 < r1 && w1 > 0.f) {
-            const float* h = rows.data() + size_t(y0 + 1 - r0) * U;
-            addScaled(h, w1, U, out);
-          }
-        }
+      shiftAndSumRows(lf, lf.views, xShift, yShift, yBegin, yEnd, rows, slice, 0);
+      if (weighted) {
+        weightSum.create(kRowsPerTask, U, CV_32F);
+        shiftAndSumRows(lf, lf.weights, xShift, yShift, yBegin, yEnd, rows, weightSum, yBegin);
       }
-      // Normalise by the weight that fell inside the views (can be small where only
-// the edge of a few views reaches; near the centre it is at least 1 per axis).
+      // Normalise by the weight that fell inside the views: near the centre at least
+      // 1 per axis without alpha; with alpha it is 0 where no valid sample reaches,
+      // and those pixels are set to 0.
       for (int y = yBegin; y < yEnd; ++y) {
         float* out = slice.ptr<float>(y);
+        const float* ws = weighted ? weightSum.ptr<float>(y - yBegin) : nullptr;
         for (int x = 0; x < U; ++x) {
-          const float w = wx[x] * wy[y];
+          const float w = weighted ? ws[x] : wx[x] * wy[y];
           out[x] = w > 1e-6f ? out[x] / w : 0.f;
         }
       }

@@ -19,6 +19,8 @@ std::vector<double> slopeGrid(double first, double last, int n);
 ///
 /// where the taps are the 2x2 bilinear neighbours of the (generally fractional)
 /// sample position and only taps inside the view count, so borders do not darken.
+/// With per-sample weights a (lf.weights, alpha) every tap's w is also scaled by a:
+/// F = sum(w a L) / sum(w a), and F = 0 where no valid sample reaches.
 /// Centres: s_c = (S - 1) / 2, t_c = (T - 1) / 2 (fractional for even view counts).
 void renderFocalSlice(const LightField& lf, double slope, cv::Mat& slice);
 

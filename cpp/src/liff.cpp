@@ -6,6 +6,7 @@
 #include "extrema.hpp"
 #include "focal_stack.hpp"
 #include "light_field.hpp"
+#include "memory.hpp"
 #include "profile.hpp"
 #include "scale_space.hpp"
 
@@ -117,6 +118,12 @@ class LiFF_Impl : public LiFF {
   int getDescriptorType() const override { return descriptorType_; }
   void setRootSift(bool v) override { rootSift_ = v; }
   bool getRootSift() const override { return rootSift_; }
+  void setMemoryLimitMB(double v) override {
+    require(v >= 0, cv::format("memoryLimitMB = %g; expected >= 0 (0 = automatic, "
+                               "infinity = no limit)", v));
+    memoryLimitMB_ = v;
+  }
+  double getMemoryLimitMB() const override { return memoryLimitMB_; }
 
   std::vector<double> slopesFor(int T, int S) const override {
     require(firstSlope_ <= lastSlope_,
@@ -233,6 +240,7 @@ class LiFF_Impl : public LiFF {
   double firstSlope_ = -1, lastSlope_ = 1;
   int numSlopes_ = 0, descriptorType_ = CV_32F;
   bool rootSift_ = false;
+  double memoryLimitMB_ = 0;
 };
 
 // Index of the grid slope nearest to `slope` (the slice a keypoint is described on).
@@ -280,10 +288,31 @@ void buildSlices(const LightField& lf, const std::vector<double>& slopes,
 // Rows of one octave image that one extrema-search task covers.
 constexpr int kRowsPerSearchTask = 32;
 
+constexpr double kBytesPerMB = 1024.0 * 1024.0;
+
 // Slices searched together: one per thread, so that building their scale spaces
 // keeps every thread busy; memory stays at (batch + 2) scale spaces. Results do
-// not depend on it.
-int sliceBatch() { return std::max(1, cv::getNumThreads()); }
+// not depend on it, so when memory is short the batch shrinks; when even one slice
+// at a time does not fit, fail now, before the large allocations.
+int sliceBatch(const LightField& lf, const detail::MemoryEstimate& need, double limitMB) {
+  int batch = std::max(1, cv::getNumThreads());
+  const bool automatic = limitMB == 0;
+  const double limit = automatic ? detail::availableMemoryBytes() : limitMB * kBytesPerMB;
+  if (limit <= 0 || std::isinf(limit)) return batch;  // unknown or unlimited
+  while (batch > 1 && need.total(batch) > limit) --batch;
+  if (need.total(batch) > limit)
+    CV_Error(cv::Error::StsNoMem,
+             cv::format("LiFF: a light field of %d x %d views of %d x %d pixels needs about "
+                        "%.0f MB (grey light field %.0f MB, 3 scale spaces of %.0f MB, %.0f MB "
+                        "while building one), more than the memory limit of %.4g MB (%s); "
+                        "expected a light field that fits: crop or downsample the views, or "
+                        "raise the limit with setMemoryLimitMB",
+                        lf.T, lf.S, lf.V, lf.U, need.total(1) / kBytesPerMB,
+                        need.lightFieldBytes / kBytesPerMB, need.windowSliceBytes / kBytesPerMB,
+                        need.buildBytes / kBytesPerMB, limit / kBytesPerMB,
+                        automatic ? "automatic: the memory available now" : "setMemoryLimitMB"));
+  return batch;
+}
 
 void LiFF_Impl::describe(const std::vector<cv::KeyPoint>& keypoints,
                          const std::vector<int>& sliceOf,
@@ -315,7 +344,7 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
                                  std::vector<cv::KeyPoint>& keypoints,
                                  cv::OutputArray descriptorsOut, bool useProvidedKeypoints) {
   const cv::Mat input = image.getMat();
-  const LightField lf = detail::toGreyLightField(input);
+  LightField lf = detail::checkLightField(input);
   const cv::Mat mask = maskArray.getMat();
   detail::checkMask(mask, lf.viewSize());
   const std::vector<double> slopes = slopesFor(lf.T, lf.S);
@@ -323,7 +352,19 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   const double step = M > 1 ? (slopes.back() - slopes.front()) / (M - 1) : 0.0;
   const int octaves = detail::numOctaves(lf.viewSize());
   const bool wantDescriptors = descriptorsOut.needed();
-  const int batch = sliceBatch();
+
+  // Memory check before the grey conversion, the largest single allocation.
+  detail::MemoryEstimate need;
+  need.lightFieldBytes = detail::conversionBytes(input, lf);
+  if (octaves >= 1) {
+    const cv::Size view = lf.viewSize();
+    const double full = detail::scaleSpaceBytes(view, nOctaveLayers_, octaves, false);
+    need.windowSliceBytes = detail::scaleSpaceBytes(view, nOctaveLayers_, octaves, true);
+    // The rest of a full pyramid, the slice and its 2x upsampled base.
+    need.buildBytes = full - need.windowSliceBytes + 5.0 * view.area() * sizeof(float);
+  }
+  const int batch = sliceBatch(lf, need, memoryLimitMB_);
+  detail::convertLightField(input, lf);
   std::map<int, std::shared_ptr<ScaleSpace>> window;
 
   if (useProvidedKeypoints) {

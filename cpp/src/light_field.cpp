@@ -34,9 +34,31 @@ double unitScale(int depth) {
   }
 }
 
+// Throws naming the first view and pixel of `data` (LightField row layout) that is
+// NaN or infinite; views are checked in parallel.
+void checkFinite(const cv::Mat& data, const LightField& lf, const char* what) {
+  std::vector<int> badRow(size_t(lf.T) * lf.S, -1), badCol(size_t(lf.T) * lf.S, -1);
+  cv::parallel_for_(cv::Range(0, lf.T * lf.S), [&](const cv::Range& range) {
+    for (int v = range.start; v < range.end; ++v) {
+      cv::Point bad;
+      if (!cv::checkRange(data.rowRange(v * lf.V, (v + 1) * lf.V), true, &bad)) {
+        badRow[v] = bad.y;
+        badCol[v] = bad.x;
+      }
+    }
+  });
+  for (size_t v = 0; v < badRow.size(); ++v)
+    if (badRow[v] >= 0)
+      CV_Error(cv::Error::StsBadArg,
+               cv::format("LiFF: the light field holds a NaN or infinite %s (view %d, "
+                          "t = %d, s = %d, pixel row %d, column %d); expected finite values, "
+                          "nominally in [0, 1]",
+                          what, int(v), int(v) / lf.S, int(v) % lf.S, badRow[v], badCol[v]));
+}
+
 }  // namespace
 
-LightField toGreyLightField(const cv::Mat& input) {
+LightField checkLightField(const cv::Mat& input) {
   if (input.empty())
     CV_Error(cv::Error::StsBadArg,
              "LiFF: the light field is empty; expected a 4-D Mat {T, S, V, U} or a 2-D image");
@@ -51,10 +73,10 @@ LightField toGreyLightField(const cv::Mat& input) {
              "LiFF: the light field has element type " + depthName(depth) +
                  "; expected uint8, uint16, float32 or float64");
   const int channels = input.channels();
-  if (channels != 1 && channels != 3)
+  if (channels < 1 || channels > 4)
     CV_Error(cv::Error::StsBadArg,
-             cv::format("LiFF: the light field has %d channels; expected 1 (grey) or 3 (BGR)",
-                        channels));
+             cv::format("LiFF: the light field has %d channels; expected 1 (grey), 2 (grey + "
+                        "alpha), 3 (BGR) or 4 (BGRA)", channels));
 
   LightField lf;
   if (dims == 2) {
@@ -77,7 +99,27 @@ LightField toGreyLightField(const cv::Mat& input) {
     CV_Error(cv::Error::StsBadSize,
              cv::format("LiFF: the light field has %.0f samples; at most %d are supported",
                         total, INT_MAX));
+  return lf;
+}
 
+double conversionBytes(const cv::Mat& input, const LightField& lf) {
+  const double samples = double(lf.T) * lf.S * lf.V * lf.U;
+  const int channels = input.channels();
+  const bool inPlace = channels == 1 && input.depth() == CV_32F && input.isContinuous();
+  const bool copied = input.dims == 4 && !input.isContinuous();  // made continuous first
+  const double converted = inPlace ? 0 : samples * sizeof(float) * (channels % 2 == 0 ? 2 : 1);
+  return converted + (copied ? samples * double(input.elemSize()) : 0);
+}
+
+LightField toGreyLightField(const cv::Mat& input) {
+  LightField lf = checkLightField(input);
+  convertLightField(input, lf);
+  return lf;
+}
+
+void convertLightField(const cv::Mat& input, LightField& lf) {
+  const int dims = input.dims, depth = input.depth(), channels = input.channels();
+  const bool hasAlpha = channels == 2 || channels == 4;
   // View the input as (T*S*V) rows of U pixels, with its channels. A 2-D Mat may
   // have any row step; a 4-D sub-array that is not continuous is copied first.
   cv::Mat rows2d;
@@ -89,25 +131,34 @@ LightField toGreyLightField(const cv::Mat& input) {
     rows2d = continuous.reshape(0, 2, rowsU);  // shares data and reference count
   }
 
-  cv::Mat grey;
+  cv::Mat grey, weights;
   if (channels == 1 && depth == CV_32F && rows2d.isContinuous()) {
     grey = rows2d;  // no copy: we never write to it
   } else {
     // Convert view by view, so a colour or integer light field never exists as a
     // whole in float colour.
     grey.create(lf.T * lf.S * lf.V, lf.U, CV_32F);
+    if (hasAlpha) weights.create(grey.size(), CV_32F);
     const double scale = unitScale(depth);
     cv::parallel_for_(cv::Range(0, lf.T * lf.S), [&](const cv::Range& range) {
-      cv::Mat colour;
+      cv::Mat converted;
       for (int v = range.start; v < range.end; ++v) {
-        const cv::Mat src = rows2d.rowRange(v * lf.V, (v + 1) * lf.V);
-        cv::Mat dst = grey.rowRange(v * lf.V, (v + 1) * lf.V);
-        if (channels == 3) {
-          // Luminance of BGR (ITU-R BT.601, as cv::COLOR_BGR2GRAY), computed in float.
-          src.convertTo(colour, CV_32F, scale);
-          cv::cvtColor(colour, dst, cv::COLOR_BGR2GRAY);
-        } else {
+        const cv::Range rows(v * lf.V, (v + 1) * lf.V);
+        const cv::Mat src = rows2d.rowRange(rows);
+        cv::Mat dst = grey.rowRange(rows);
+        if (channels == 1) {
           src.convertTo(dst, CV_32F, scale);
+          continue;
+        }
+        src.convertTo(converted, CV_32F, scale);
+        // Luminance of BGR (ITU-R BT.601, as cv::COLOR_BGR2GRAY), computed in float;
+        // the alpha channel (last) is the sample's weight.
+        if (channels == 2) cv::extractChannel(converted, dst, 0);
+        if (channels == 3) cv::cvtColor(converted, dst, cv::COLOR_BGR2GRAY);
+        if (channels == 4) cv::cvtColor(converted, dst, cv::COLOR_BGRA2GRAY);
+        if (hasAlpha) {
+          cv::Mat alpha = weights.rowRange(rows);
+          cv::extractChannel(converted, alpha, channels - 1);
         }
       }
     });
@@ -115,28 +166,31 @@ LightField toGreyLightField(const cv::Mat& input) {
 
   if (depth == CV_32F || depth == CV_64F) {
     // For 64F input a finite value can still overflow float; check the converted
-    // data, view by view in parallel, and report the first bad row.
-    std::vector<int> badRow(size_t(lf.T) * lf.S, -1), badCol(size_t(lf.T) * lf.S, -1);
-    cv::parallel_for_(cv::Range(0, lf.T * lf.S), [&](const cv::Range& range) {
-      for (int v = range.start; v < range.end; ++v) {
-        cv::Point bad;
-        if (!cv::checkRange(grey.rowRange(v * lf.V, (v + 1) * lf.V), true, &bad)) {
-          badRow[v] = v * lf.V + bad.y;
-          badCol[v] = bad.x;
-        }
-      }
-    });
-    for (size_t v = 0; v < badRow.size(); ++v)
-      if (badRow[v] >= 0)
-        CV_Error(cv::Error::StsBadArg,
-                 cv::format("LiFF: the light field holds a NaN or infinite value (view %d, "
-                            "t = %d, s = %d, pixel row %d, column %d); expected finite values, "
-                            "nominally in [0, 1]",
-                            int(v), int(v) / lf.S, int(v) % lf.S, badRow[v] - int(v) * lf.V,
-                            badCol[v]));
+    // data, view by view in parallel, and report the first bad sample.
+    checkFinite(grey, lf, "value");
+    if (hasAlpha) checkFinite(weights, lf, "alpha (weight)");
   }
+  if (hasAlpha) {
+    double minWeight = 0, maxWeight = 0;
+    cv::minMaxLoc(weights, &minWeight, &maxWeight);
+    if (minWeight < 0)
+      CV_Error(cv::Error::StsBadArg,
+               cv::format("LiFF: the light field's alpha channel holds a negative weight "
+                          "(%g); expected per-sample validity weights >= 0", minWeight));
+    if (minWeight == maxWeight && maxWeight == 1.0) {
+      weights.release();  // all samples fully valid: the unweighted focal stack is the same
+    } else {
+      // Premultiply (views hold w * L) view by view; `grey` is our own buffer here.
+      cv::parallel_for_(cv::Range(0, lf.T * lf.S), [&](const cv::Range& range) {
+        for (int v = range.start; v < range.end; ++v) {
+          cv::Mat view = grey.rowRange(v * lf.V, (v + 1) * lf.V);
+          cv::multiply(view, weights.rowRange(v * lf.V, (v + 1) * lf.V), view);
+        }
+      });
+    }
+  }
+  lf.weights = weights;
   lf.views = grey;
-  return lf;
 }
 
 void checkMask(const cv::Mat& mask, cv::Size viewSize) {

@@ -66,8 +66,11 @@ int main() {
         "3-D Mat");
   check(throwsWith([&] { d->detect(cv::Mat(32, 32, CV_32S, cv::Scalar(0)), kps); }, "uint8"),
         "int32 element type");
-  check(throwsWith([&] { d->detect(cv::Mat(32, 32, CV_8UC4, cv::Scalar(0)), kps); }, "channels"),
-        "4 channels");
+  check(throwsWith([&] { d->detect(cv::Mat(32, 32, CV_8UC(5), cv::Scalar(0)), kps); }, "channels"),
+        "5 channels");
+  check(throwsWith([&] { d->detect(cv::Mat(32, 32, CV_32FC2, cv::Scalar(0.5, -1)), kps); },
+                   "negative weight"),
+        "negative alpha");
   cv::Mat withNaN(32, 32, CV_32F, cv::Scalar(0.5));
   withNaN.at<float>(3, 4) = NAN;
   check(throwsWith([&] { d->detect(withNaN, kps); }, "NaN"), "NaN value");
@@ -96,6 +99,28 @@ int main() {
   d->compute(lf, again, desc2);
   check(again.size() == kps.size() && cv::norm(desc, desc2, cv::NORM_INF) == 0,
         "compute() on detected keypoints equals detectAndCompute()");
+
+  // Grey + opaque alpha equals grey; a memory limit too small fails with StsNoMem.
+  {
+    cv::Mat withAlpha;
+    const cv::Mat opaque(4, lf.size.p, CV_32F, cv::Scalar(1));
+    cv::merge(std::vector<cv::Mat>{lf, opaque}, withAlpha);
+    std::vector<cv::KeyPoint> alphaKps;
+    d->detect(withAlpha, alphaKps);
+    bool same = alphaKps.size() == kps.size();
+    for (size_t i = 0; same && i < kps.size(); ++i)
+      same = alphaKps[i].pt == kps[i].pt && alphaKps[i].class_id == kps[i].class_id;
+    check(same, "opaque alpha channel changes nothing");
+    cv::Ptr<liff::LiFF> small = liff::LiFF::create();
+    small->setMemoryLimitMB(0.01);
+    bool noMem = false;
+    try {
+      small->detect(lf, alphaKps);
+    } catch (const cv::Exception& e) {
+      noMem = e.code == cv::Error::StsNoMem && e.err.find("memory limit") != std::string::npos;
+    }
+    check(noMem, "memory limit too small throws StsNoMem before detecting");
+  }
 
   // FileStorage round trip of every parameter, and read() of a bad value keeps the old ones.
   cv::Ptr<liff::LiFF> a = liff::LiFF::create(7, 4, 0.02, 12, 1.8, -1.5, 0.5, 9, CV_8U, true);

@@ -113,10 +113,12 @@ class LiFF(_core.LiFF):
     Notes
     -----
     Light fields are numpy arrays of shape ``(T, S, V, U)`` or ``(T, S, V, U, C)``
-    (view row, view column, pixel row, pixel column, channel), C = 1 or 3 (BGR, as
-    OpenCV), dtype uint8 (/255), uint16 (/65535), float32 or float64 (taken as given,
-    nominally in [0, 1]). A 2-D image ``(V, U)`` or ``(V, U, C)`` is a 1x1 light field,
-    for which LiFF behaves as SIFT.
+    (view row, view column, pixel row, pixel column, channel), C = 1 (grey), 2 (grey +
+    alpha), 3 (BGR, as OpenCV) or 4 (BGRA), dtype uint8 (/255), uint16 (/65535), float32
+    or float64 (taken as given, nominally in [0, 1]). An alpha channel is a per-sample
+    validity weight ``a >= 0`` (e.g. a Lytro lenslet image's vignetting mask): the
+    focal stack becomes ``sum(a L) / sum(a)``. A 2-D image ``(V, U)`` or ``(V, U, C)``
+    is a 1x1 light field, for which LiFF behaves as SIFT.
     """
 
     @classmethod

@@ -2,9 +2,11 @@
 //
 // Public C++ API. A light field arrives as one stacked cv::Mat:
 //   * 4-D, sizes {T, S, V, U}: view row, view column, pixel row, pixel column;
-//     1 channel (grey) or 3 channels (BGR, converted to grey by luminance);
+//     1 channel (grey), 2 (grey + alpha), 3 (BGR, converted to grey by luminance)
+//     or 4 (BGRA); alpha is a per-sample validity weight a >= 0 and the focal
+//     stack becomes sum(a L) / sum(a);
 //     depth CV_8U (/255), CV_16U (/65535), CV_32F or CV_64F (taken as given);
-//   * 2-D (V x U, 1 or 3 channels): a single view, i.e. a 1x1 light field, for
+//   * 2-D (V x U, 1 to 4 channels): a single view, i.e. a 1x1 light field, for
 //     which LiFF behaves as SIFT.
 //
 // Slope convention: a scene point at (x, y) in the centre view appears at
@@ -72,6 +74,15 @@ class CV_EXPORTS_W LiFF : public cv::Feature2D {
   virtual int getDescriptorType() const = 0;
   virtual void setRootSift(bool rootSift) = 0;
   virtual bool getRootSift() const = 0;
+
+  /// Memory detectAndCompute may use beyond its input, in megabytes (2^20 bytes).
+  /// 0 (default) = automatic: the memory available when a call starts (Linux:
+  /// MemAvailable, capped by the cgroup limit; no limit where unknown); +infinity =
+  /// no limit. When the estimated need exceeds it, fewer slices are built at once;
+  /// if even one at a time does not fit, the call throws cv::Error::StsNoMem naming
+  /// the estimate and the limit, before allocating anything large. Not saved by write().
+  virtual void setMemoryLimitMB(double megabytes) = 0;
+  virtual double getMemoryLimitMB() const = 0;
 
   /// The slopes the focal stack is built at for a light field of T x S views
   /// (resolves numSlopes = 0; a 1x1 light field has the single slope

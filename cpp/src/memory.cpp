@@ -1,0 +1,73 @@
+#include "memory.hpp"
+
+#include <algorithm>
+#include <fstream>
+#include <limits>
+#include <string>
+
+namespace liff {
+namespace detail {
+namespace {
+
+// First number in a file (cgroup limits: "max" means none), or -1.
+double readNumber(const char* path) {
+  std::ifstream in(path);
+  std::string word;
+  if (!(in >> word) || word == "max") return -1;
+  try {
+    return std::stod(word);
+  } catch (const std::exception&) {
+    return -1;
+  }
+}
+
+// MemAvailable (kB) from /proc/meminfo, in bytes, or -1.
+double memAvailable() {
+  std::ifstream in("/proc/meminfo");
+  std::string key, unit;
+  double kb = 0;
+  while (in >> key >> kb) {
+    std::getline(in, unit);
+    if (key == "MemAvailable:") return kb * 1024.0;
+  }
+  return -1;
+}
+
+// Room left under this process's cgroup memory limit, in bytes, or -1 if none.
+double cgroupRoom() {
+  // cgroup v2 (unified) at the root of the container's view, then v1.
+  const double v2Max = readNumber("/sys/fs/cgroup/memory.max");
+  if (v2Max > 0) {
+    const double used = readNumber("/sys/fs/cgroup/memory.current");
+    return std::max(1.0, v2Max - std::max(0.0, used));
+  }
+  const double v1Max = readNumber("/sys/fs/cgroup/memory/memory.limit_in_bytes");
+  // v1 reports "no limit" as a huge number (about 2^63 rounded to pages).
+  if (v1Max > 0 && v1Max < 1e18) {
+    const double used = readNumber("/sys/fs/cgroup/memory/memory.usage_in_bytes");
+    return std::max(1.0, v1Max - std::max(0.0, used));
+  }
+  return -1;
+}
+
+}  // namespace
+
+double scaleSpaceBytes(cv::Size viewSize, int layers, int octaves, bool detectionOnly) {
+  const int gaussians = detectionOnly ? layers : layers + 3, dogs = layers + 2;
+  double pixels = 0;
+  cv::Size size(viewSize.width * 2, viewSize.height * 2);  // octave -1
+  for (int o = 0; o < octaves; ++o) {
+    pixels += double(size.width) * size.height;
+    size = cv::Size(std::max(1, size.width / 2), std::max(1, size.height / 2));
+  }
+  return pixels * (gaussians + dogs) * sizeof(float);
+}
+
+double availableMemoryBytes() {
+  const double available = memAvailable(), room = cgroupRoom();
+  if (available < 0) return room > 0 ? room : 0;
+  return room >= 0 ? std::min(available, room) : available;
+}
+
+}  // namespace detail
+}  // namespace liff

@@ -1,0 +1,37 @@
+// Memory the detector will need, and memory the machine has, so that a light field
+// too large fails early with a clear error instead of an out-of-memory kill.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+namespace liff {
+namespace detail {
+
+/// Bytes of one slice's Gaussian and DoG pyramids (CV_32F, octave -1 upsampled 2x):
+/// per octave o the images are (2U / 2^o) x (2V / 2^o); a full pyramid holds
+/// layers + 3 Gaussians and layers + 2 DoGs per octave, a detection-only one keeps
+/// `layers` Gaussians.
+double scaleSpaceBytes(cv::Size viewSize, int layers, int octaves, bool detectionOnly);
+
+/// Peak bytes of detectAndCompute beyond the caller's input, for `batch` slices
+/// built at once:
+///   grey light field (+ weights)           lightFieldBytes
+///   + (batch + 2) detection pyramids        (the sliding window over slopes)
+///   + batch * (full - detection pyramid + slice + upsampled base)   while building.
+struct MemoryEstimate {
+  double lightFieldBytes = 0;
+  double windowSliceBytes = 0;  // one detection-only pyramid
+  double buildBytes = 0;        // extra while one slice is being built
+
+  double total(int batch) const {
+    return lightFieldBytes + (batch + 2) * windowSliceBytes + batch * buildBytes;
+  }
+};
+
+/// Physical memory this process can still use, in bytes: on Linux MemAvailable from
+/// /proc/meminfo, capped by the cgroup (v2 or v1) limit minus current usage; 0 when
+/// unknown (other systems), meaning no automatic limit.
+double availableMemoryBytes();
+
+}  // namespace detail
+}  // namespace liff

@@ -126,3 +126,33 @@ def test_random_blob_layers_gives_up_when_full():
     # asking for far more blobs than fit returns as many as fit, without hanging
     blobs = synthetic.random_blob_layers([0.0], (3, 3, 40, 40), blobs_per_layer=500, seed=0)
     assert 0 < len(blobs) < 500
+
+
+def test_textured_layers_follow_their_slopes():
+    """Away from occlusion edges, view (t, s) is the centre view shifted by the slope."""
+    shape = (5, 5, 96, 128)
+    scene = synthetic.textured_layers(shape, slopes=(-1.0, 0.0, 1.0), noise_variance=0)
+    lf, slopes = scene.light_field, scene.slope_map
+    assert lf.shape == shape and lf.dtype == np.float32 and slopes.shape == (96, 128)
+    assert set(np.unique(slopes)) == {-1.0, 0.0, 1.0}
+    centre = lf[2, 2]
+    # Slope 1 (bars) and -1 (background) move by whole pixels: view (2, 3) at (x, y)
+    # equals the centre at (x + slope, y) for pixels inside a layer, away from its edges.
+    # (pixels whose row neighbours within 3 px are on the same layer: nothing nearer
+    # can cover them in view (2, 3), and the bilinear warp reads only their layer.)
+    inner = np.ones(slopes.shape, bool)
+    for k in range(-3, 4):
+        inner &= np.roll(slopes, k, axis=1) == slopes
+    for slope in (-1, 1):
+        ys, xs = np.nonzero(inner[4:-4, 4:-4] & (slopes[4:-4, 4:-4] == slope))
+        ys, xs = ys + 4, xs + 4
+        np.testing.assert_allclose(lf[2, 3][ys, xs - slope], centre[ys, xs], atol=1e-5)
+
+
+def test_textured_layers_contrast_and_noise():
+    clean = synthetic.textured_layers((3, 3, 64, 64), noise_variance=0, contrast=0.1)
+    noisy = synthetic.textured_layers((3, 3, 64, 64), noise_variance=1e-3, contrast=0.1)
+    assert clean.light_field.std() < 0.05  # a tenth of the full-contrast texture
+    assert abs((noisy.light_field - clean.light_field).var() - 1e-3) < 2e-4
+    with pytest.raises(ValueError, match="three increasing"):
+        synthetic.textured_layers(slopes=(0.5, 0.1, 0.7))

@@ -155,3 +155,73 @@ def random_blob_layers(
             blobs.append(Blob(x, y, r, float(slope), sign * rng.uniform(0.3, 0.5)))
             placed += 1
     return blobs
+
+
+@dataclass
+class LayeredScene:
+    """Fronto-parallel textured layers: ``light_field`` float32 (T, S, V, U) in [0, 1],
+    and ``slope_map`` float32 (V, U), the slope of the nearest layer at each centre-view
+    pixel (what a feature there should report)."""
+
+    light_field: np.ndarray
+    slope_map: np.ndarray
+
+
+def _smooth_texture(shape, seed: int, blur: float) -> np.ndarray:
+    """Gaussian-smoothed uniform noise, stretched to [0, 1]."""
+    import cv2
+
+    rng = np.random.default_rng(seed)
+    texture = cv2.GaussianBlur(rng.random(shape).astype(np.float32), (0, 0), blur)
+    texture -= texture.min()
+    return texture / max(float(texture.max()), 1e-6)
+
+
+def textured_layers(
+    shape: Tuple[int, int, int, int] = (9, 9, 128, 128),
+    slopes: Tuple[float, float, float] = (-0.6, 0.1, 0.7),
+    seed: int = 0,
+    noise_variance: float = 1e-4,
+    contrast: float = 1.0,
+) -> LayeredScene:
+    """Three textured layers at ``slopes`` (far to near), each partially occluding what
+    is behind: a full background, a disc of radius 0.3 V, and vertical bars 8 px wide
+    every 60 px (the occluder).
+
+    Textures are smoothed noise (blur 2, 1.5 and 1 px) scaled to ``contrast`` around
+    0.5. Rendering warps each layer bilinearly per view (so, unlike the disk scenes,
+    not analytically), composites near over far, adds Gaussian noise of variance
+    ``noise_variance`` view by view and clips to [0, 1].
+    """
+    import cv2
+
+    T, S, V, U = shape
+    if len(slopes) != 3 or not np.all(np.diff(slopes) > 0):
+        raise ValueError(f"slopes = {slopes}; expected three increasing slopes (far to near)")
+    yy, xx = np.mgrid[0:V, 0:U]
+    disc = ((xx - U * 0.45) ** 2 + (yy - V * 0.5) ** 2 < (0.3 * V) ** 2).astype(np.float32)
+    bars = (np.mod(xx, 60) < 8).astype(np.float32)
+    layers = [(slope, 0.5 + contrast * (_smooth_texture((V, U), seed + i, blur) - 0.5), alpha)
+              for i, (slope, blur, alpha) in enumerate(
+                  zip(slopes, (2.0, 1.5, 1.0), (np.ones((V, U), np.float32), disc, bars)))]
+    slope_map = np.full((V, U), slopes[0], np.float32)
+    slope_map[disc > 0] = slopes[1]
+    slope_map[bars > 0] = slopes[2]
+    lf = np.zeros(shape, np.float32)
+    noise = np.random.default_rng(seed + 9)
+    for t in range(T):
+        for s in range(S):
+            view = np.zeros((V, U), np.float32)
+            for slope, texture, alpha in layers:
+                # Content at centre-view (x, y) appears at (x + dx, y + dy) in this view.
+                dx, dy = -slope * (s - (S - 1) / 2), -slope * (t - (T - 1) / 2)
+                warp = np.float32([[1, 0, dx], [0, 1, dy]])
+                warped = cv2.warpAffine(texture, warp, (U, V), flags=cv2.INTER_LINEAR,
+                                        borderMode=cv2.BORDER_REFLECT)
+                cover = cv2.warpAffine(alpha, warp, (U, V), flags=cv2.INTER_LINEAR,
+                                       borderMode=cv2.BORDER_REFLECT)
+                view = view * (1 - cover) + warped * cover
+            if noise_variance > 0:  # view by view, so memory stays at one light field
+                view += noise.normal(0, np.sqrt(noise_variance), (V, U)).astype(np.float32)
+            lf[t, s] = np.clip(view, 0, 1)
+    return LayeredScene(lf, slope_map)

@@ -1,0 +1,143 @@
+"""What the subcommands share: detector and reader options, input loading, batches."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from typing import Callable, Iterable, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .._detector import LiFF
+
+
+def add_reader_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("reading light fields (docs/INPUTS.md)")
+    group.add_argument("--format", default=None,
+                       help="hci, views, eslf, mosaic, npy or npz (default: from the path)")
+    group.add_argument("--grid", type=int, nargs=2, metavar=("T", "S"), default=None,
+                       help="view grid (mosaics; overrides what view names say)")
+    group.add_argument("--lenslet", type=int, default=None, metavar="N",
+                       help="lenslet size of an ESLF image (default 14)")
+    group.add_argument("--keep-views", type=int, default=None, metavar="K",
+                       help="ESLF: keep the centre K x K views (e.g. 11 of a Lytro's 14)")
+    group.add_argument("--pattern", default=None,
+                       help="views: regex with named groups t and s (or index) for the file names")
+    group.add_argument("--key", default=None, help="npz: the array holding the light field")
+    group.add_argument("--preprocess", action="store_true",
+                       help="the paper's SfM preprocessing: luminance, gamma 0.5, "
+                            "histogram equalisation")
+
+
+def reader_options(args: argparse.Namespace) -> dict:
+    """Keyword arguments for liff.io.read_light_field from the parsed options."""
+    options = {}
+    if args.format:
+        options["format"] = args.format
+    if args.grid:
+        options["grid"] = tuple(args.grid)
+    if args.lenslet:
+        options["n"] = args.lenslet
+    if args.keep_views:
+        options["keep"] = args.keep_views
+    if args.pattern:
+        options["pattern"] = args.pattern
+    if args.key:
+        options["key"] = args.key
+    return options
+
+
+def add_detector_options(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("detector (liff.LiFF.create parameters)")
+    group.add_argument("--first-slope", type=float, default=-1.0, help="default -1")
+    group.add_argument("--last-slope", type=float, default=1.0, help="default 1")
+    group.add_argument("--num-slopes", type=int, default=0,
+                       help="slopes in the focal stack (default 0: odd number >= views)")
+    group.add_argument("--contrast-threshold", type=float, default=0.04, help="default 0.04")
+    group.add_argument("--edge-threshold", type=float, default=10.0, help="default 10")
+    group.add_argument("--nfeatures", type=int, default=0, help="keep the best N (0 = all)")
+    group.add_argument("--root-sift", action="store_true", help="RootSIFT descriptors")
+
+
+def detector_parameters(args: argparse.Namespace) -> dict:
+    return dict(nfeatures=args.nfeatures, contrastThreshold=args.contrast_threshold,
+                edgeThreshold=args.edge_threshold, firstSlope=args.first_slope,
+                lastSlope=args.last_slope, numSlopes=args.num_slopes, rootSift=args.root_sift)
+
+
+def make_detector(parameters: dict) -> LiFF:
+    return LiFF.create(**parameters)
+
+
+def load_light_field(path: str, options: dict, preprocess: bool) -> np.ndarray:
+    """Reads a light field (any liff.io format) and optionally preprocesses it."""
+    from .. import io
+
+    light_field = io.read_light_field(path, **options).light_field
+    if preprocess:
+        from ..preprocess import prepare
+
+        light_field = prepare(light_field)
+    return light_field
+
+
+def output_name(path: str, suffix: str) -> str:
+    """``scene.png`` -> ``scene<suffix>``; a folder ``a/scene/`` -> ``scene<suffix>``."""
+    base = os.path.basename(os.path.normpath(path))
+    stem = base.split(".")[0] if not os.path.isdir(path) else base
+    return (stem or "light_field") + suffix
+
+
+def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: str,
+              label: Callable[[tuple], str]) -> Tuple[List, int]:
+    """Runs ``function(*job)`` for every job, on ``workers`` processes (1 = here), with a
+    progress bar on stderr for more than one job. A job that raises is reported as
+    ``liff <command>: <label>: <error>`` and the rest go on.
+
+    Returns (results in job order, None for failures; number of failures).
+    """
+    results: List = [None] * len(jobs)
+    failures = 0
+    progress = _progress(len(jobs), command)
+
+    def report(i: int, error: BaseException) -> None:
+        nonlocal failures
+        failures += 1
+        message = f"liff {command}: {label(jobs[i])}: {error}"
+        (progress.write(message, file=sys.stderr) if progress else print(message, file=sys.stderr))
+
+    if workers <= 1 or len(jobs) <= 1:
+        for i, job in enumerate(jobs):
+            try:
+                results[i] = function(*job)
+            except (ValueError, OSError, MemoryError) as error:
+                report(i, error)
+            if progress:
+                progress.update()
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futures = {pool.submit(function, *job): i for i, job in enumerate(jobs)}
+            for future in as_completed(futures):
+                i = futures[future]
+                try:
+                    results[i] = future.result()
+                except (ValueError, OSError, MemoryError) as error:
+                    report(i, error)
+                if progress:
+                    progress.update()
+    if progress:
+        progress.close()
+    return results, failures
+
+
+def _progress(total: int, command: str):
+    """A tqdm bar for batches (None for a single job or when stderr is not a terminal
+    and LIFF_PROGRESS is unset)."""
+    if total <= 1:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=f"liff {command}", unit="file", file=sys.stderr,
+                disable=None if "LIFF_PROGRESS" not in os.environ else False)

@@ -1,0 +1,87 @@
+"""``liff detect PATH... --out feats.npz --plot feats.png``: LiFF features of light fields."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+import cv2
+
+from .. import __version__
+from ..feature_file import Features, centre_view, save_features
+from ..plot import draw_keypoints_by_slope
+from . import common
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "detect", help="detect LiFF features in light fields",
+        description="Detects LiFF features in each light field and writes them to an .npz "
+                    "(keypoints as rows x, y, size, angle, response, octave; slopes; "
+                    "descriptors; the centre view). Several inputs: --out is a folder.")
+    p.add_argument("paths", nargs="+", metavar="PATH", help="light field files or folders")
+    p.add_argument("--out", default=None,
+                   help="output .npz (one input) or folder (default: <name>.npz here)")
+    p.add_argument("--plot", default=None,
+                   help="also draw the features over the centre view: a .png (one input) or "
+                        "a folder")
+    p.add_argument("--workers", type=int, default=1, help="processes for many inputs (default 1)")
+    p.add_argument("--overwrite", action="store_true", help="redo outputs that already exist")
+    common.add_reader_options(p)
+    common.add_detector_options(p)
+    p.set_defaults(run=run)
+
+
+def destination(given, path: str, suffix: str, many: bool) -> str:
+    """Where the output for ``path`` goes: ``given`` itself for one input (unless it is
+    a folder), else ``given``/<name><suffix>."""
+    if given is None:
+        return common.output_name(path, suffix)
+    if many or os.path.isdir(given) or given.endswith(os.sep):
+        return os.path.join(given, common.output_name(path, suffix))
+    return given
+
+
+def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
+               parameters: dict) -> int:
+    """Reads, detects and writes one light field; returns the feature count."""
+    light_field = common.load_light_field(path, options, preprocess)
+    detector = common.make_detector(parameters)
+    keypoints, descriptors = detector.detectAndCompute(light_field, None)
+    meta = dict(source=os.path.abspath(path), shape=list(light_field.shape),
+                parameters=parameters, preprocess=preprocess, liff_version=__version__)
+    view = centre_view(light_field)
+    save_features(out, Features(tuple(keypoints), descriptors, view, meta))
+    if plot:
+        slope_range = (parameters["firstSlope"], parameters["lastSlope"])
+        if not cv2.imwrite(plot, draw_keypoints_by_slope(view, keypoints, slope_range)):
+            raise OSError(f"could not write the picture {plot}")
+    return len(keypoints)
+
+
+def run(args: argparse.Namespace) -> int:
+    many = len(args.paths) > 1
+    for folder in (args.out, args.plot):
+        if many and folder and os.path.exists(folder) and not os.path.isdir(folder):
+            raise ValueError(f"{folder}: exists and is not a folder; expected a folder for "
+                             f"{len(args.paths)} inputs")
+    jobs, skipped = [], 0
+    for path in args.paths:
+        out = destination(args.out, path, ".npz", many)
+        plot = destination(args.plot, path, ".png", many) if args.plot else None
+        if not args.overwrite and os.path.exists(out) and (plot is None or os.path.exists(plot)):
+            skipped += 1
+            continue
+        for target in (out, plot):
+            if target and os.path.dirname(target):
+                os.makedirs(os.path.dirname(target), exist_ok=True)
+        jobs.append((path, out, plot, common.reader_options(args), args.preprocess,
+                     common.detector_parameters(args)))
+    counts, failures = common.run_batch(detect_one, jobs, args.workers, "detect",
+                                        label=lambda job: job[0])
+    for job, count in zip(jobs, counts):
+        if count is not None:
+            print(f"{job[0]}: {count} features -> {job[1]}" + (f", {job[2]}" if job[2] else ""))
+    if skipped:
+        print(f"skipped {skipped} input(s) whose outputs exist (--overwrite to redo them)")
+    return 1 if failures else 0

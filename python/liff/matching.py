@@ -1,0 +1,74 @@
+"""Two-view matching as an ordinary OpenCV script does it: nearest neighbours with
+Lowe's ratio test, then a RANSAC homography (or fundamental matrix) for inliers."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import List, Optional, Sequence
+
+import cv2
+import numpy as np
+
+
+@dataclass
+class MatchResult:
+    """``matches`` passed the ratio test (putative); ``inliers`` (bool, one per match)
+    agree with ``model`` (3x3, or None when fewer than ``min_matches`` or RANSAC failed)."""
+
+    matches: List[cv2.DMatch]
+    inliers: np.ndarray
+    model: Optional[np.ndarray]
+
+    @property
+    def inlier_count(self) -> int:
+        return int(self.inliers.sum())
+
+
+def ratio_matches(descriptors_a: Optional[np.ndarray], descriptors_b: Optional[np.ndarray],
+                  ratio: float = 0.75) -> List[cv2.DMatch]:
+    """Brute-force L2 matches a -> b kept when ``d1 < ratio * d2`` (Lowe's test).
+
+    Parameters
+    ----------
+    descriptors_a, descriptors_b : ndarray, shape (N, 128), float32 or uint8, or None
+    ratio : float in (0, 1]
+    """
+    if not 0 < ratio <= 1:
+        raise ValueError(f"ratio = {ratio}; expected a value in (0, 1]")
+    if descriptors_a is None or descriptors_b is None or len(descriptors_a) == 0 or len(descriptors_b) < 2:
+        return []
+    a = np.asarray(descriptors_a, np.float32)
+    b = np.asarray(descriptors_b, np.float32)
+    knn = cv2.BFMatcher(cv2.NORM_L2).knnMatch(a, b, k=2)
+    return [pair[0] for pair in knn if len(pair) == 2 and pair[0].distance < ratio * pair[1].distance]
+
+
+def verify(keypoints_a: Sequence[cv2.KeyPoint], keypoints_b: Sequence[cv2.KeyPoint],
+           matches: Sequence[cv2.DMatch], model: str = "homography",
+           threshold: float = 3.0, min_matches: int = 8) -> MatchResult:
+    """RANSAC on the matched positions: ``model`` is "homography" (planar scenes,
+    rotations) or "fundamental" (general 3-D scenes); ``threshold`` in pixels."""
+    if model not in ("homography", "fundamental"):
+        raise ValueError(f"model = {model!r}; expected 'homography' or 'fundamental'")
+    matches = list(matches)
+    inliers = np.zeros(len(matches), bool)
+    if len(matches) < min_matches:
+        return MatchResult(matches, inliers, None)
+    pa = np.float32([keypoints_a[m.queryIdx].pt for m in matches])
+    pb = np.float32([keypoints_b[m.trainIdx].pt for m in matches])
+    if model == "homography":
+        estimate, mask = cv2.findHomography(pa, pb, cv2.RANSAC, threshold)
+    else:
+        estimate, mask = cv2.findFundamentalMat(pa, pb, cv2.FM_RANSAC, threshold, 0.999)
+    if estimate is None or mask is None:
+        return MatchResult(matches, inliers, None)
+    return MatchResult(matches, mask.ravel().astype(bool), estimate[:3])
+
+
+def draw_inliers(image_a: np.ndarray, keypoints_a, image_b: np.ndarray, keypoints_b,
+                 result: MatchResult) -> np.ndarray:
+    """Side-by-side picture of the inlier matches (cv2.drawMatches)."""
+    inlier_matches = [m for m, ok in zip(result.matches, result.inliers) if ok]
+    return cv2.drawMatches(image_a, list(keypoints_a), image_b, list(keypoints_b), inlier_matches,
+                           None, matchColor=(0, 255, 0), singlePointColor=(160, 160, 160),
+                           flags=cv2.DrawMatchesFlags_DEFAULT)

@@ -2,7 +2,10 @@
 
 cv2.SIFT reports positions of its upsampled first octave +0.25 px off (it maps
 upsampled pixel x' to x'/2 although cv2.resize samples it at x'/2 - 0.25); LiFF does
-not, so LiFF pt == SIFT pt - 0.25 in x and y. Everything else must agree.
+not, so LiFF pt == SIFT pt - 0.25 in x and y. LiFF also keeps extrema whose
+refinement cycles between two samples (flat-topped blobs, e.g. large uniform disks),
+which cv2.SIFT loses after five steps: LiFF finds every SIFT keypoint, plus those.
+Everything else must agree.
 """
 
 import cv2
@@ -39,13 +42,25 @@ def pair_up(kps, skps):
 def test_same_keypoints_as_sift(both):
     kps, _, skps, _ = both
     assert len(kps) > 100
-    # observed: 233 and 233
-    assert abs(len(kps) - len(skps)) <= 0.02 * len(skps)
-    close = nearest_distances(points(kps), points(skps) - SIFT_BIAS) < 0.05
-    assert close.mean() >= 0.95  # observed 100%
-    # and the other way round: LiFF misses (almost) none of SIFT's keypoints
+    # LiFF misses (almost) none of SIFT's keypoints (observed: all 225)
     back = nearest_distances(points(skps) - SIFT_BIAS, points(kps)) < 0.05
-    assert back.mean() >= 0.95
+    assert back.mean() >= 0.98
+    # and its extra ones, from refinements that cycle, are few (observed 243 vs 225)
+    close = nearest_distances(points(kps), points(skps) - SIFT_BIAS) < 0.05
+    assert len(skps) <= len(kps) <= 1.12 * len(skps)
+    assert close.mean() >= 0.88
+
+
+def test_large_disk_lost_by_sift_is_found():
+    """A disk of radius 7.3 px whose DoG top is flat: SIFT's refinement cycles between two
+    samples and drops it; LiFF keeps it, centred within 0.1 px."""
+    disk = synthetic.Blob(40.23, 40.73, 7.29, 0.0, 0.1)
+    image = synthetic.render_disks([disk], (1, 1, 80, 80))[0, 0].astype(np.float32)
+    sift = cv2.SIFT.create(contrastThreshold=0.02).detect(np.round(image * 255).astype(np.uint8))
+    assert not any(np.hypot(k.pt[0] - disk.x, k.pt[1] - disk.y) < 2 for k in sift)
+    found = liff.LiFF.create(contrastThreshold=0.02).detect(image)
+    assert len(found) >= 1
+    assert all(np.hypot(k.pt[0] - disk.x, k.pt[1] - disk.y) < 0.1 for k in found)
 
 
 def test_sizes_octaves_responses_equal_sift(both):

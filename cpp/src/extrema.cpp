@@ -6,6 +6,8 @@
 
 #include <liff/liff.hpp>
 
+#include <algorithm>
+#include <array>
 #include <cfloat>
 #include <climits>
 #include <cmath>
@@ -80,6 +82,8 @@ bool refine(const ScaleSpace& space, int o, const DetectParams& params, int r, i
   const int layers = space.layers;
   const cv::Mat& base = space.dog(o, 0);
   float xi = 0, xr = 0, xc = 0;
+  std::array<cv::Vec3i, kMaxRefineSteps + 1> visited;  // (r, c, layer) of each step
+  visited[0] = cv::Vec3i(r, c, layer);
   int step = 0;
   for (; step < kMaxRefineSteps; ++step) {
     const cv::Mat& img = space.dog(o, layer);
@@ -107,9 +111,21 @@ bool refine(const ScaleSpace& space, int o, const DetectParams& params, int r, i
     if (!(std::abs(xi) < float(INT_MAX / 3) && std::abs(xr) < float(INT_MAX / 3) &&
           std::abs(xc) < float(INT_MAX / 3)))
       return false;  // singular or NaN fit
-    c += cvRound(xc);
-    r += cvRound(xr);
-    layer += cvRound(xi);
+    // A move back to a sample already visited would cycle until the step limit and
+    // lose the point (cv::SIFT does): this happens at flat-topped extrema, e.g. a
+    // large uniform disk at its best scale, where the quadratic fit overshoots from
+    // both sides. The extremum then lies between the two samples: keep this one with
+    // its fitted offset when that stays within one sample.
+    const cv::Vec3i target(r + cvRound(xr), c + cvRound(xc), layer + cvRound(xi));
+    const auto seen = visited.begin() + step + 1;  // the start and every move so far
+    if (std::find(visited.begin(), seen, target) != seen) {
+      if (std::abs(xi) < 1.f && std::abs(xr) < 1.f && std::abs(xc) < 1.f) break;
+      return false;
+    }
+    visited[step + 1] = target;
+    r = target[0];
+    c = target[1];
+    layer = target[2];
     if (layer < 1 || layer > layers || c < kImageBorder || c >= base.cols - kImageBorder ||
         r < kImageBorder || r >= base.rows - kImageBorder)
       return false;

@@ -1,10 +1,33 @@
-"""Light field readers. Every reader returns an array (T, S, V, U[, C]) plus metadata.
-
-So far: HCI 4D benchmark scene folders and PFM images (more formats: see the
-project's issues).
+"""Light field readers and writers. Every reader returns an array (T, S, V, U[, C]) plus
+metadata; :func:`read_light_field` picks the reader from the path. Formats, options and
+the alpha / weight convention: docs/INPUTS.md. Axis order and slope sign:
+docs/CONVENTIONS.md.
 """
 
+from ._shared import LightFieldFile, centre_views
+from .eslf import read_eslf, write_eslf
 from .hci import HciScene, read_hci
+from .mosaic import read_mosaic, write_mosaic
+from .numpy_files import read_numpy
 from .pfm import read_pfm, write_pfm
+from .read import FORMATS, guess_format, read_light_field
+from .views import read_views, write_views
 
-__all__ = ["HciScene", "read_hci", "read_pfm", "write_pfm"]
+__all__ = [
+    "FORMATS",
+    "HciScene",
+    "LightFieldFile",
+    "centre_views",
+    "guess_format",
+    "read_eslf",
+    "read_hci",
+    "read_light_field",
+    "read_mosaic",
+    "read_numpy",
+    "read_pfm",
+    "read_views",
+    "write_eslf",
+    "write_mosaic",
+    "write_pfm",
+    "write_views",
+]

@@ -1,0 +1,193 @@
+"""What the format modules share: the result type, array checks, image reading and writing.
+
+Nothing here knows a particular layout; each ``liff.io`` format module builds on these.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Optional, Sequence, Tuple, Union
+
+import cv2
+import numpy as np
+
+PathLike = Union[str, os.PathLike]
+
+#: dtypes a light field may have (as the detector accepts them, see docs/CONVENTIONS.md)
+LIGHT_FIELD_DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
+#: file name endings read as images by the view-folder reader
+IMAGE_SUFFIXES = (".png", ".tif", ".tiff", ".jpg", ".jpeg", ".bmp", ".ppm", ".pgm", ".webp")
+#: endings whose OpenCV encoders keep 16 bits (the others fall back to 8 bits silently)
+SIXTEEN_BIT_SUFFIXES = (".png", ".tif", ".tiff")
+
+
+@dataclass
+class LightFieldFile:
+    """A light field read from disk.
+
+    Attributes
+    ----------
+    light_field : ndarray, shape (T, S, V, U) or (T, S, V, U, C)
+        As stored (uint8, uint16, float32 or float64; BGR colour). C is 1, 3, or 2/4
+        when the last channel is an alpha / per-sample weight (docs/INPUTS.md).
+    format : str
+        The reader that produced it: "hci", "views", "eslf", "mosaic", "npy" or "npz".
+    metadata : dict
+        Format-specific facts (grid, lenslet size, files, ...); see docs/INPUTS.md.
+    gt_disparity : ndarray of float32, shape (V, U), or None
+        Ground-truth disparity of the centre view in pixels per view step (= liff's
+        slope), when the format carries one.
+    source : str
+        The path that was read.
+    """
+
+    light_field: np.ndarray
+    format: str
+    metadata: dict = field(default_factory=dict)
+    gt_disparity: Optional[np.ndarray] = None
+    source: str = ""
+
+
+def check_light_field(array: np.ndarray, source: str) -> np.ndarray:
+    """Returns ``array`` if it is a light field liff accepts, else raises.
+
+    Raises
+    ------
+    ValueError
+        Naming ``source``: not 4-D or 5-D, an empty axis, C not in {1, 2, 3, 4}, or a
+        dtype other than uint8, uint16, float32, float64.
+    """
+    if array.ndim not in (4, 5):
+        raise ValueError(f"{source}: array has shape {array.shape}; expected a light field "
+                         f"(T, S, V, U) or (T, S, V, U, C)")
+    if 0 in array.shape:
+        raise ValueError(f"{source}: array has shape {array.shape}; expected no empty axis")
+    if array.ndim == 5 and array.shape[4] not in (1, 2, 3, 4):
+        raise ValueError(f"{source}: array has {array.shape[4]} channels (shape {array.shape}); "
+                         f"expected C in 1, 2, 3, 4")
+    if array.dtype not in LIGHT_FIELD_DTYPES:
+        raise ValueError(f"{source}: array has dtype {array.dtype}; expected uint8, uint16, "
+                         f"float32 or float64")
+    return array
+
+
+def grid_size(grid, source: str) -> Tuple[int, int]:
+    """``grid`` as a pair of positive ints (T, S); raises ValueError naming ``source``."""
+    try:
+        rows, cols = (int(g) for g in grid)
+    except (TypeError, ValueError):
+        raise ValueError(f"{source}: grid {grid!r}; expected two view counts (T, S)") from None
+    if rows < 1 or cols < 1:
+        raise ValueError(f"{source}: grid {grid!r}; expected positive view counts (T, S)")
+    return rows, cols
+
+
+def centre_range(count: int, keep: int) -> slice:
+    """The centre ``keep`` of ``count`` indices: ``slice(first, first + keep)`` with
+    ``first = (count - keep) // 2``, so for an odd surplus the extra index dropped is
+    the last one (14 -> 11 keeps 1..11, as the LiFF authors' ``LF(2:end-2)``)."""
+    first = (count - keep) // 2
+    return slice(first, first + keep)
+
+
+def centre_views(light_field: np.ndarray, keep) -> np.ndarray:
+    """The centre views of a light field (a view of the array, not a copy).
+
+    Parameters
+    ----------
+    light_field : ndarray, shape (T, S, V, U[, C])
+    keep : int or (int, int)
+        How many view rows and columns to keep (one int: the same for both). For each
+        axis the first kept view is ``(T - keep) // 2``: when ``T - keep`` is odd the
+        extra view dropped is at the bottom / right.
+
+    Returns
+    -------
+    ndarray, shape (keep_t, keep_s, V, U[, C])
+    """
+    rows, cols = grid_size((keep, keep) if np.isscalar(keep) else keep, "centre_views")
+    T, S = light_field.shape[:2]
+    if rows > T or cols > S:
+        raise ValueError(f"centre_views: keep {rows}x{cols} views of a {T}x{S} grid; expected "
+                         f"at most {T}x{S}")
+    return light_field[centre_range(T, rows), centre_range(S, cols)]
+
+
+def _is_grey_alpha_png(path: str) -> bool:
+    """True for a PNG of colour type 4 (grey + alpha), which OpenCV expands to BGRA."""
+    with open(path, "rb") as f:
+        head = f.read(26)
+    return len(head) == 26 and head[:8] == b"\x89PNG\r\n\x1a\n" and head[25] == 4
+
+
+def read_image(path: PathLike) -> np.ndarray:
+    """Reads an image as stored (``cv2.IMREAD_UNCHANGED``: 16 bits and alpha survive).
+
+    Returns
+    -------
+    ndarray, shape (V, U) grey, (V, U, 2) grey + alpha, (V, U, 3) BGR or (V, U, 4) BGRA,
+        dtype as stored (uint8, uint16 or float32).
+
+    Raises
+    ------
+    ValueError
+        If the file is missing or OpenCV cannot decode it.
+    """
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise ValueError(f"{path}: no such file; expected an image")
+    image = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+    if image is None:
+        raise ValueError(f"{path}: unreadable image; expected a format OpenCV decodes "
+                         f"(PNG, TIFF, JPEG, ...)")
+    if image.ndim == 3 and image.shape[2] == 4 and _is_grey_alpha_png(path):
+        image = np.ascontiguousarray(image[:, :, [0, 3]])
+    return image
+
+
+def check_writable(light_field: np.ndarray, path: PathLike) -> np.ndarray:
+    """Checks that ``light_field`` can be written as images at ``path`` (by ending).
+
+    Raises
+    ------
+    ValueError
+        Naming ``path``: not a light field, a dtype other than uint8 (or uint16 for
+        PNG/TIFF), or 2 channels (OpenCV writes only 1, 3 or 4).
+    """
+    path = os.fspath(path)
+    light_field = check_light_field(np.asarray(light_field), path)
+    suffix = os.path.splitext(path)[1].lower()
+    allowed = ("uint8", "uint16") if suffix in SIXTEEN_BIT_SUFFIXES else ("uint8",)
+    if light_field.dtype.name not in allowed:
+        raise ValueError(f"{path}: light field has dtype {light_field.dtype}; expected "
+                         f"{' or '.join(allowed)} for {suffix or 'this'} images (scale floats "
+                         f"explicitly, e.g. np.round(lf * 255).astype(np.uint8))")
+    channels = light_field.shape[4] if light_field.ndim == 5 else 1
+    if channels == 2:
+        raise ValueError(f"{path}: light field has 2 channels (grey + alpha); expected 1, 3 or 4 "
+                         f"for images (OpenCV cannot write grey + alpha: repeat the grey "
+                         f"channel to BGRA, or save .npz)")
+    return light_field
+
+
+def as_image(array: np.ndarray) -> np.ndarray:
+    """(V, U) or (V, U, C) image of a view or mosaic, dropping a single channel axis."""
+    return array[..., 0] if array.ndim == 3 and array.shape[2] == 1 else array
+
+
+def write_image(path: PathLike, image: np.ndarray) -> None:
+    """Writes one image with OpenCV; raises ValueError naming ``path`` if it fails."""
+    path = os.fspath(path)
+    try:
+        ok = cv2.imwrite(path, np.ascontiguousarray(image))
+    except cv2.error as e:
+        raise ValueError(f"{path}: OpenCV could not write the image ({e})") from None
+    if not ok:
+        raise ValueError(f"{path}: OpenCV could not write the image; expected a writable path "
+                         f"with an image ending such as .png or .tif")
+
+
+def describe_missing(names: Sequence[str], limit: int = 5) -> str:
+    """The first ``limit`` names, comma-separated, with ' ...' if there are more."""
+    return ", ".join(names[:limit]) + (" ..." if len(names) > limit else "")

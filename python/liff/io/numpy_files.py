@@ -1,0 +1,78 @@
+"""Light fields saved with numpy: ``.npy`` (one array) and ``.npz`` (named arrays).
+
+Write them with numpy itself: ``np.save(path, lf)`` or
+``np.savez_compressed(path, light_field=lf, gt_disparity=d)``.
+"""
+
+from __future__ import annotations
+
+import os
+import zipfile
+from typing import Optional
+
+import numpy as np
+
+from ._shared import LightFieldFile, PathLike, check_light_field
+
+LIGHT_FIELD_KEY = "light_field"
+DISPARITY_KEY = "gt_disparity"
+
+
+def read_numpy(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
+    """Reads a light field from ``.npy`` or ``.npz``.
+
+    Parameters
+    ----------
+    path : path
+        ``.npy``, or ``.npz`` (any other ending is read as ``.npy``). Pickled objects are
+        refused.
+    key : str, optional
+        For ``.npz``: the array to read. Default: ``"light_field"`` if present, else the
+        only array.
+
+    Returns
+    -------
+    LightFieldFile
+        ``light_field`` as stored (4-D or 5-D, C in {1, 2, 3, 4}, uint8 / uint16 /
+        float32 / float64); ``format`` "npy" or "npz"; ``metadata``: ``key`` and
+        ``keys`` (npz). An npz array ``gt_disparity`` of shape (V, U) becomes
+        ``gt_disparity`` (float32).
+
+    Raises
+    ------
+    ValueError
+        Naming the file: unreadable, ``key`` absent, several arrays and no ``key``, or an
+        array that is not a light field.
+    """
+    path = os.fspath(path)
+    try:
+        loaded = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
+        raise ValueError(f"{path}: unreadable ({e}); expected a .npy or .npz file") from None
+    if isinstance(loaded, np.ndarray):
+        if key is not None:
+            raise ValueError(f"{path}: key {key!r} given for a .npy file; expected a .npz file")
+        light_field = check_light_field(loaded, path)
+        return LightFieldFile(light_field, "npy", {}, None, path)
+
+    with loaded:
+        keys = sorted(loaded.files)
+        if key is None:
+            candidates = [k for k in keys if k != DISPARITY_KEY]
+            if LIGHT_FIELD_KEY in keys:
+                key = LIGHT_FIELD_KEY
+            elif len(candidates) == 1:
+                key = candidates[0]
+            else:
+                raise ValueError(f"{path}: arrays {keys}; expected one named {LIGHT_FIELD_KEY!r}, "
+                                 f"a single array, or key=...")
+        if key not in keys:
+            raise ValueError(f"{path}: no array {key!r}; expected one of {keys}")
+        light_field = check_light_field(loaded[key], f"{path}[{key!r}]")
+        disparity = loaded[DISPARITY_KEY] if DISPARITY_KEY in keys and key != DISPARITY_KEY else None
+    if disparity is not None:
+        if disparity.shape != light_field.shape[2:4]:
+            raise ValueError(f"{path}[{DISPARITY_KEY!r}]: shape {disparity.shape}; expected the "
+                             f"views' (V, U) = {light_field.shape[2:4]}")
+        disparity = disparity.astype(np.float32)
+    return LightFieldFile(light_field, "npz", {"key": key, "keys": keys}, disparity, path)

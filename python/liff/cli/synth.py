@@ -74,5 +74,6 @@ def run(args: argparse.Namespace) -> int:
                 json.dump(truth, f, indent=1)
         else:
             np.save(base + ".slopes.npy", truth["slope_map"])
-    print(f"{args.kind}: {lf.shape} light field -> {args.out} ({args.format})")
+    hint = f"; read it with --lenslet {args.views}" if args.format == "eslf" else ""
+    print(f"{args.kind}: {lf.shape} light field -> {args.out} ({args.format}{hint})")
     return 0

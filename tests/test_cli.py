@@ -1,0 +1,137 @@
+"""The ``liff`` console command, run in-process through liff.cli.main (and once as a
+real subprocess): outputs, batches, skipping, and errors that name the file."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+
+import cv2
+import numpy as np
+import pytest
+
+import liff
+from liff.cli import main
+from liff.feature_file import load_features
+
+
+@pytest.fixture(scope="module")
+def disk_npz(tmp_path_factory):
+    """The paper's disk scene, small: 5x5 views of 96x96, as written by `liff synth`."""
+    path = str(tmp_path_factory.mktemp("synth") / "disks.npz")
+    assert main(["synth", "disks", "--out", path, "--views", "5", "--size", "96", "96"]) == 0
+    return path
+
+
+def test_synth_writes_light_field_and_truth(disk_npz):
+    with np.load(disk_npz) as data:
+        assert data["light_field"].shape == (5, 5, 96, 96)
+        assert data["blobs"].shape == (26, 5)  # x, y, radius, slope, intensity
+        assert np.all(np.abs(data["blobs"][:, 3]) <= 1)
+
+
+def test_synth_refuses_to_overwrite(disk_npz, capsys):
+    assert main(["synth", "disks", "--out", disk_npz]) == 1
+    assert disk_npz in capsys.readouterr().err
+
+
+def test_detect_writes_features_that_match_the_api(disk_npz, tmp_path, capsys):
+    out, plot = tmp_path / "f.npz", tmp_path / "f.png"
+    assert main(["detect", disk_npz, "--out", str(out), "--plot", str(plot),
+                 "--contrast-threshold", "0.02"]) == 0
+    features = load_features(out)
+    with np.load(disk_npz) as data:
+        lf = data["light_field"]
+    kps, desc = liff.LiFF.create(contrastThreshold=0.02).detectAndCompute(lf, None)
+    assert len(features.keypoints) == len(kps) > 10
+    np.testing.assert_array_equal(features.descriptors, desc)
+    np.testing.assert_allclose(features.slopes, liff.keypoint_slopes(kps), atol=1e-4)
+    assert [k.pt for k in features.keypoints] == [k.pt for k in kps]
+    assert features.centre_view.shape == (96, 96, 3)  # stored for display, BGR uint8
+    assert cv2.imread(str(plot)) is not None
+    assert features.meta["parameters"]["contrastThreshold"] == 0.02
+    assert f"{len(kps)} features" in capsys.readouterr().out
+
+
+def test_detect_batch_skips_existing_and_reports_bad_files(disk_npz, tmp_path, capsys):
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, light_field=np.zeros((3, 3)))  # 2-D: not a light field
+    out = tmp_path / "features"
+    args = ["detect", disk_npz, str(bad), "--out", str(out)]
+    assert main(args) == 1  # one file failed
+    captured = capsys.readouterr()
+    assert str(bad) in captured.err
+    assert os.path.exists(out / "disks.npz") and not os.path.exists(out / "bad.npz")
+    mtime = os.path.getmtime(out / "disks.npz")
+    assert main(["detect", disk_npz, "--out", str(out)]) == 0
+    assert "skipped 1" in capsys.readouterr().out
+    assert os.path.getmtime(out / "disks.npz") == mtime
+
+
+def test_detect_with_two_workers_equals_one(disk_npz, tmp_path):
+    copy = tmp_path / "copy.npz"
+    with np.load(disk_npz) as data:
+        np.savez(copy, light_field=data["light_field"][:, :, ::-1])  # a different scene
+    for workers, folder in ((1, "one"), (2, "two")):
+        assert main(["detect", disk_npz, str(copy), "--out", str(tmp_path / folder),
+                     "--workers", str(workers)]) == 0
+    for name in ("disks.npz", "copy.npz"):
+        a, b = load_features(tmp_path / "one" / name), load_features(tmp_path / "two" / name)
+        np.testing.assert_array_equal(a.descriptors, b.descriptors)
+
+
+def test_match_counts_inliers_between_shifted_light_fields(tmp_path, capsys):
+    """A textured scene and the same scene shifted by (7, 4) px: many inliers, and the
+    homography found is that translation."""
+    from liff import synthetic
+
+    scene = synthetic.textured_layers((5, 5, 120, 160), noise_variance=0).light_field
+    a, b = scene[:, :, :100, :140], scene[:, :, 4:104, 7:147]
+    np.save(tmp_path / "a.npy", a)
+    np.save(tmp_path / "b.npy", b)
+    plot = tmp_path / "m.png"
+    assert main(["match", str(tmp_path / "a.npy"), str(tmp_path / "b.npy"), "--plot", str(plot)]) == 0
+    out = capsys.readouterr().out
+    counts = re.search(r"putative matches: (\d+); inliers \(homography, 3 px\): (\d+)", out)
+    putative, inliers = int(counts.group(1)), int(counts.group(2))
+    assert inliers >= 20 and inliers <= putative
+    assert cv2.imread(str(plot)) is not None
+
+
+def test_errors_name_the_file_and_exit_non_zero(tmp_path, capsys):
+    missing = tmp_path / "nothing_here"
+    assert main(["detect", str(missing), "--out", str(tmp_path / "x.npz")]) == 1
+    assert str(missing) in capsys.readouterr().err
+    not_features = tmp_path / "junk.npz"
+    not_features.write_bytes(b"not a zip file")
+    assert main(["match", str(not_features), str(not_features)]) == 1
+    assert str(not_features) in capsys.readouterr().err
+
+
+def test_console_script_runs_as_a_process(tmp_path):
+    """`python -m liff.cli` (what the `liff` script runs) answers --help and exits 2 on
+    bad usage, as argparse programs do."""
+    ok = subprocess.run([sys.executable, "-m", "liff.cli", "--help"], capture_output=True, text=True)
+    assert ok.returncode == 0 and "detect" in ok.stdout and "match" in ok.stdout
+    bad = subprocess.run([sys.executable, "-m", "liff.cli", "detect"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "PATH" in bad.stderr
+
+
+@pytest.mark.parametrize("fmt, name, extra", [("views", "views", []),
+                                              ("eslf", "scene.eslf.png", ["--lenslet", "5"]),
+                                              ("mosaic", "mosaic.png", ["--format", "mosaic",
+                                                                        "--grid", "5", "5"])])
+def test_synth_formats_read_back_for_detect(tmp_path, fmt, name, extra):
+    """Every format `liff synth` writes is read by `liff detect` (16-bit PNGs), and the
+    features equal those of the float light field up to the 16-bit rounding."""
+    out = str(tmp_path / name)
+    assert main(["synth", "layers", "--out", out, "--format", fmt, "--views", "5",
+                 "--size", "64", "80"]) == 0
+    assert os.path.exists(out + ".slopes.npy")
+    assert main(["detect", out, "--out", str(tmp_path / "f.npz")] + extra) == 0
+    features = load_features(tmp_path / "f.npz")
+    lf = liff.synthetic.textured_layers((5, 5, 64, 80), noise_variance=0.0).light_field
+    reference = liff.LiFF.create().detect(lf)
+    assert abs(len(features.keypoints) - len(reference)) <= 0.1 * len(reference) + 2

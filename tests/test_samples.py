@@ -1,0 +1,35 @@
+"""The Python samples run (on built-in data) and say what they should."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+
+import cv2
+
+SAMPLES = os.path.join(os.path.dirname(__file__), "..", "samples")
+
+
+def run_sample(name, *args):
+    result = subprocess.run([sys.executable, os.path.join(SAMPLES, name), *args],
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    return result.stdout
+
+
+def test_opencv_swap_recovers_the_translation(tmp_path):
+    out = tmp_path / "matches.png"
+    printed = run_sample("opencv_swap.py", "--out", str(out))
+    tx, ty = map(float, re.search(r"translation \(([-\d.]+), ([-\d.]+)\)", printed).groups())
+    assert abs(tx + 12) < 0.2 and abs(ty + 7) < 0.2
+    assert int(re.search(r"(\d+) inliers", printed).group(1)) >= 20
+    assert cv2.imread(str(out)) is not None
+
+
+def test_features_3d_on_the_built_in_scene(tmp_path):
+    out = tmp_path / "f3d.png"
+    printed = run_sample("features_3d.py", "--out", str(out), "--hci", "")
+    assert float(re.search(r"median \|slope - ground truth\| ([\d.]+)", printed).group(1)) < 0.05
+    assert cv2.imread(str(out)) is not None

@@ -1,0 +1,408 @@
+"""Structure from motion with COLMAP (through pycolmap) on features computed elsewhere.
+
+The pipeline: :func:`write_database` stores images with their keypoints and SIFT-like
+descriptors in a fresh COLMAP database, :func:`match` matches every pair exhaustively
+and verifies each pair geometrically, :func:`reconstruct` runs COLMAP's incremental
+mapper, and :func:`table_metrics` computes the columns of the paper's SfM table
+(Dansereau et al., CVPR 2019, Table 2, after Schoenberger et al., CVPR 2017). Needs
+``pip install liff[sfm]`` (pycolmap >= 4).
+
+Conventions crossed here:
+
+- Pixel coordinates: OpenCV puts integer coordinates at pixel centres, COLMAP at pixel
+  corners, so a keypoint at OpenCV (x, y) is COLMAP (x + 0.5, y + 0.5); likewise the
+  principal point.
+- Scale: ``cv2.KeyPoint.size`` is a diameter, 2 sigma; COLMAP's keypoint scale is sigma.
+- Orientation: ``cv2.KeyPoint.angle`` is in degrees counter-clockwise as seen on screen
+  (y up); COLMAP's orientation is in radians in image coordinates (y down), i.e. clockwise
+  on screen: ``orientation = -radians(angle)``. Keypoints without one (angle -1) get 0.
+- Descriptors: cv2.SIFT and liff store ``round(512 * d)`` of a unit-norm d, saturated
+  to [0, 255] (in float32 or uint8), which is COLMAP's own uint8 format already, so they
+  are only cast. :func:`root_sift` turns them into RootSIFT on the same scale.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from itertools import combinations
+from typing import Dict, List, Optional, Sequence, Tuple, Union
+
+import cv2
+import numpy as np
+
+try:
+    import pycolmap
+except ImportError as error:  # pragma: no cover - exercised only without the extra
+    raise ImportError("liff.colmap needs pycolmap: pip install 'liff[sfm]'") from error
+
+PathLike = Union[str, os.PathLike]
+
+
+@dataclass
+class FeatureImage:
+    """One image and its features, as a detector returned them.
+
+    Attributes
+    ----------
+    name : str
+        File name inside the image folder, e.g. ``"pose00.png"``.
+    image : ndarray, shape (V, U)
+        Grey image, uint8, or float nominally in [0, 1] (written as 8-bit PNG).
+    keypoints : sequence of cv2.KeyPoint
+        OpenCV pixel coordinates (centre of the top-left pixel at (0, 0)).
+    descriptors : ndarray, shape (N, 128), uint8 or float
+        On SIFT's integer scale, ``round(512 * d)`` in [0, 255], as cv2.SIFT and liff
+        return them; N = len(keypoints). None is taken as no features (N must be 0).
+    """
+
+    name: str
+    image: np.ndarray
+    keypoints: Sequence[cv2.KeyPoint]
+    descriptors: Optional[np.ndarray]
+
+
+@dataclass
+class SfmResult:
+    """What :func:`reconstruct` returns.
+
+    Attributes
+    ----------
+    reconstructions : dict of int to pycolmap.Reconstruction
+        COLMAP's models, empty if mapping failed.
+    num_images : int
+        Images in the database.
+    """
+
+    reconstructions: Dict[int, "pycolmap.Reconstruction"] = field(default_factory=dict)
+    num_images: int = 0
+
+    @property
+    def success(self) -> bool:
+        """True if COLMAP produced at least one model (the paper's "pass")."""
+        return len(self.reconstructions) > 0
+
+    @property
+    def best(self) -> Optional["pycolmap.Reconstruction"]:
+        """The model with the most registered images (then the most points), or None."""
+        if not self.reconstructions:
+            return None
+        return max(self.reconstructions.values(), key=lambda r: (r.num_reg_images(), r.num_points3D()))
+
+
+# --- conversions -----------------------------------------------------------------------
+
+def keypoints_to_colmap(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
+    """COLMAP keypoints (x, y, scale, orientation), float32 (N, 4): see the module notes."""
+    rows = [(k.pt[0] + 0.5, k.pt[1] + 0.5, k.size / 2,
+             0.0 if k.angle < 0 else -np.radians(k.angle)) for k in keypoints]
+    out = np.asarray(rows, dtype=np.float32).reshape(-1, 4)
+    # Orientation in [-pi, pi), as COLMAP's own extractor reports it.
+    out[:, 3] = (out[:, 3] + np.pi) % (2 * np.pi) - np.pi
+    return out
+
+
+def descriptors_to_colmap(descriptors: Optional[np.ndarray], num_keypoints: int) -> np.ndarray:
+    """Checks descriptors on SIFT's integer scale and casts them to uint8 (N, 128).
+
+    Raises ValueError for a wrong shape, a count that differs from ``num_keypoints``,
+    non-finite values, values outside [0, 255], or float descriptors that look unit-norm
+    (COLMAP wants ``round(512 * d)``; pass unit-norm ones through
+    ``np.clip(np.round(512 * d), 0, 255)``).
+    """
+    if descriptors is None:
+        if num_keypoints:
+            raise ValueError(f"descriptors are None but there are {num_keypoints} keypoints")
+        return np.zeros((0, 128), np.uint8)
+    d = np.asarray(descriptors)
+    if d.ndim != 2 or d.shape[1] != 128:
+        raise ValueError(f"descriptors have shape {d.shape}; expected (N, 128)")
+    if d.shape[0] != num_keypoints:
+        raise ValueError(f"{d.shape[0]} descriptors for {num_keypoints} keypoints; expected one each")
+    if d.dtype == np.uint8:
+        return np.ascontiguousarray(d)
+    if d.dtype.kind not in "fiu":
+        raise ValueError(f"descriptors have dtype {d.dtype}; expected uint8 or float")
+    if not np.isfinite(d).all() or (d.size and (d.min() < 0 or d.max() > 255.5)):
+        raise ValueError("descriptors must be finite and in [0, 255] (SIFT's round(512 * d))")
+    if d.size and d.max() <= 1.0:
+        raise ValueError("descriptors look unit-norm (max <= 1); COLMAP stores round(512 * d): "
+                         "pass np.clip(np.round(512 * d), 0, 255)")
+    return np.clip(np.round(d), 0, 255).astype(np.uint8)
+
+
+def root_sift(descriptors: np.ndarray) -> np.ndarray:
+    """RootSIFT (Arandjelovic and Zisserman 2012) of SIFT descriptors, on the same scale.
+
+    Parameters
+    ----------
+    descriptors : ndarray, shape (N, 128)
+        SIFT descriptors as ``round(512 * d)`` (cv2.SIFT, liff with rootSift=False).
+
+    Returns
+    -------
+    ndarray of uint8, shape (N, 128)
+        ``round(512 * sqrt(d / |d|_1))`` saturated to [0, 255]; sqrt(d / |d|_1) has unit
+        L2 norm, so this is COLMAP's format. The paper used RootSIFT for both methods.
+    """
+    d = np.asarray(descriptors, dtype=np.float64).reshape(-1, 128)
+    l1 = np.maximum(d.sum(axis=1, keepdims=True), 1e-12)
+    return np.clip(np.round(512 * np.sqrt(d / l1)), 0, 255).astype(np.uint8)
+
+
+def _as_uint8_image(image: np.ndarray) -> np.ndarray:
+    image = np.asarray(image)
+    if image.ndim != 2:
+        raise ValueError(f"image has shape {image.shape}; expected a grey (V, U) image")
+    if image.dtype == np.uint8:
+        return image
+    return np.clip(np.round(image * 255.0), 0, 255).astype(np.uint8)
+
+
+def prepare_light_field(lf: np.ndarray, gamma: float = 0.5, equalise: bool = True) -> np.ndarray:
+    """The paper's greyscale for SfM: luminance, gamma, histogram equalisation, 8 bits.
+
+    Parameters
+    ----------
+    lf : ndarray, shape (T, S, V, U[, C]) or (V, U[, C])
+        uint8 (/255), uint16 (/65535) or float nominally in [0, 1] (clipped); colour is
+        BGR, turned grey by luminance 0.299 R + 0.587 G + 0.114 B.
+    gamma : float
+        Exponent applied to the [0, 1] intensities (the paper: 0.5).
+    equalise : bool
+        Histogram equalisation with the centre view's mapping (cv2.equalizeHist's),
+        applied as one look-up table to every view, so that a scene point keeps one
+        intensity across views, as the focal stack assumes.
+
+    Returns
+    -------
+    ndarray of uint8, shape (T, S, V, U) or (V, U)
+        Its centre view is what SIFT on the centre view should see.
+    """
+    lf = np.asarray(lf)
+    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(lf.dtype, 1.0)
+    x = lf.astype(np.float32) / scale
+    image_dims = 2 if (lf.ndim == 2 or (lf.ndim == 3 and lf.shape[-1] == 3)) else 4
+    if x.ndim == image_dims + 1:  # colour, BGR
+        x = x @ np.array([0.114, 0.587, 0.299], np.float32)
+    if x.ndim not in (2, 4):
+        raise ValueError(f"light field has shape {lf.shape}; expected (T, S, V, U[, C]) or (V, U[, C])")
+    grey = np.clip(np.round(np.clip(x, 0, 1) ** gamma * 255), 0, 255).astype(np.uint8)
+    if equalise:
+        centre = grey if grey.ndim == 2 else grey[grey.shape[0] // 2, grey.shape[1] // 2]
+        lut = _equalisation_lut(centre)
+        grey = lut[grey]
+    return grey
+
+
+def _equalisation_lut(image: np.ndarray) -> np.ndarray:
+    """cv2.equalizeHist's mapping of ``image`` (uint8) as a 256-entry table, defined for
+    values the image lacks too (OpenCV: cumulative histogram above the lowest value
+    present, scaled so that the highest maps to 255, rounded)."""
+    hist = np.bincount(image.ravel(), minlength=256).astype(np.float64)
+    lowest = int(np.flatnonzero(hist)[0])
+    total, first = hist.sum(), hist[lowest]
+    if first == total:  # a constant image stays as it is
+        return np.where(np.arange(256) >= lowest, lowest, 0).astype(np.uint8)
+    cumulative = np.cumsum(hist) - first  # counts above the lowest value
+    lut = np.clip(np.round(cumulative * (255.0 / (total - first))), 0, 255)
+    lut[:lowest + 1] = 0
+    return lut.astype(np.uint8)
+
+
+# --- the pipeline ----------------------------------------------------------------------
+
+def write_database(
+    database_path: PathLike,
+    image_dir: PathLike,
+    images: Sequence[FeatureImage],
+    focal: Optional[float] = None,
+    principal_point: Optional[Tuple[float, float]] = None,
+) -> List[int]:
+    """Writes images (as PNGs) and their features into a new COLMAP database.
+
+    All images share one camera: SIMPLE_PINHOLE with the given focal length (pixels)
+    marked as a prior, or, without ``focal``, SIMPLE_RADIAL with COLMAP's default guess
+    of 1.2 * max(width, height). ``principal_point`` is in OpenCV pixels (default: the
+    image centre, ((U - 1) / 2, (V - 1) / 2)).
+
+    Returns
+    -------
+    image_ids : list of int, in the order of ``images``
+
+    Raises
+    ------
+    ValueError
+        If the database already exists (COLMAP's matcher skips pairs it has already
+        matched, so every run needs a fresh one), no images are given, names repeat,
+        sizes differ, or features are malformed (see :func:`descriptors_to_colmap`).
+    """
+    database_path, image_dir = os.fspath(database_path), os.fspath(image_dir)
+    if os.path.exists(database_path):
+        raise ValueError(f"database '{database_path}' exists; each run needs a fresh one")
+    if not images:
+        raise ValueError("no images to write")
+    names = [im.name for im in images]
+    if len(set(names)) != len(names):
+        raise ValueError(f"image names repeat: {names}")
+    grey = [_as_uint8_image(im.image) for im in images]
+    if len({g.shape for g in grey}) != 1:
+        raise ValueError(f"images differ in size: {sorted({g.shape for g in grey})}")
+    features = [(keypoints_to_colmap(im.keypoints), descriptors_to_colmap(im.descriptors, len(im.keypoints)))
+                for im in images]  # validate everything before writing anything
+    height, width = grey[0].shape
+    cx, cy = principal_point if principal_point is not None else ((width - 1) / 2, (height - 1) / 2)
+    if focal is None:
+        camera = pycolmap.Camera.create_from_model_name(
+            1, "SIMPLE_RADIAL", 1.2 * max(width, height), width, height)
+        camera.params = [1.2 * max(width, height), cx + 0.5, cy + 0.5, 0.0]
+    else:
+        camera = pycolmap.Camera.create_from_model_name(1, "SIMPLE_PINHOLE", float(focal), width, height)
+        camera.params = [float(focal), cx + 0.5, cy + 0.5]
+        camera.has_prior_focal_length = True
+    os.makedirs(image_dir, exist_ok=True)
+    ids = []
+    with pycolmap.Database.open(database_path) as db:
+        camera_id = db.write_camera(camera)
+        for im, g, (keypoints, descriptors) in zip(images, grey, features):
+            if not cv2.imwrite(os.path.join(image_dir, im.name), g):
+                raise ValueError(f"could not write '{os.path.join(image_dir, im.name)}'")
+            image_id = db.write_image(pycolmap.Image(name=im.name, camera_id=camera_id))
+            db.write_keypoints(image_id, keypoints)
+            db.write_descriptors(image_id, pycolmap.FeatureDescriptors(
+                pycolmap.FeatureExtractorType.SIFT, descriptors))
+            ids.append(image_id)
+    return ids
+
+
+def matching_options(seed: int = 0) -> tuple:
+    """COLMAP's default matching (SIFT brute force, ratio 0.8, distance 0.7, cross check)
+    and two-view verification (RANSAC, 4 px, 15 inliers), with a fixed RANSAC seed."""
+    matching = pycolmap.FeatureMatchingOptions()
+    matching.use_gpu = False
+    verification = pycolmap.TwoViewGeometryOptions()
+    verification.ransac.random_seed = seed
+    return matching, verification
+
+
+def match(database_path: PathLike, matching=None, verification=None, seed: int = 0) -> None:
+    """Exhaustive matching and two-view geometric verification of every image pair.
+
+    Parameters
+    ----------
+    matching : pycolmap.FeatureMatchingOptions, optional
+    verification : pycolmap.TwoViewGeometryOptions, optional
+        Default: :func:`matching_options` ``(seed)``.
+    """
+    default_matching, default_verification = matching_options(seed)
+    pycolmap.match_exhaustive(
+        os.fspath(database_path),
+        matching_options=default_matching if matching is None else matching,
+        verification_options=default_verification if verification is None else verification,
+        device=pycolmap.Device.cpu)
+
+
+def mapper_options(kind: str = "default", seed: int = 0) -> "pycolmap.IncrementalPipelineOptions":
+    """COLMAP's incremental mapper options.
+
+    ``"default"`` is COLMAP's defaults. ``"permissive"`` relaxes what the paper names
+    (minimum inlier counts, minimum track length, minimum model size) for small sets of
+    small images: pairs need 10 matches (default 15); the initial pair 30 inliers (100)
+    and a triangulation angle of 8 degrees (16); a new image 15 inliers (30) at an inlier
+    ratio of 0.15 (0.25); two-view tracks are kept (ignored by default); a further model
+    needs 3 images (10, or 80% of the images if fewer). COLMAP keeps its first model
+    whatever its size, so with either setting two registered images make a model. Both
+    fix the random seed.
+    """
+    options = pycolmap.IncrementalPipelineOptions()
+    options.random_seed = seed
+    options.mapper.random_seed = seed
+    options.triangulation.random_seed = seed
+    if kind == "permissive":
+        options.min_num_matches = 10
+        options.min_model_size = 3
+        options.mapper.init_min_num_inliers = 30
+        options.mapper.init_min_tri_angle = 8.0
+        options.mapper.abs_pose_min_num_inliers = 15
+        options.mapper.abs_pose_min_inlier_ratio = 0.15
+        options.triangulation.ignore_two_view_tracks = False
+    elif kind != "default":
+        raise ValueError(f"mapper = {kind!r}; expected 'default' or 'permissive'")
+    return options
+
+
+def reconstruct(database_path: PathLike, image_dir: PathLike, out_dir: PathLike,
+                mapper: str = "default", seed: int = 0) -> SfmResult:
+    """COLMAP's incremental mapping on a matched database (see :func:`mapper_options`).
+
+    Models are written to ``out_dir/0``, ``out_dir/1``, ...; the result holds them.
+    """
+    options = mapper_options(mapper, seed)
+    os.makedirs(out_dir, exist_ok=True)
+    models = pycolmap.incremental_mapping(os.fspath(database_path), os.fspath(image_dir),
+                                          os.fspath(out_dir), options)
+    with pycolmap.Database.open(os.fspath(database_path)) as db:
+        num_images = db.num_images()
+    return SfmResult(dict(models), num_images)
+
+
+# --- metrics ---------------------------------------------------------------------------
+
+def table_metrics(database_path: PathLike, result: Optional[SfmResult] = None) -> dict:
+    """The paper's SfM table columns for one scene (one database and its reconstruction).
+
+    Definitions (the paper, Sec. 5.3, after Schoenberger et al. 2017); a "match" is one
+    correspondence between two images, counted once per image pair:
+
+    - ``keypoints_per_image``: keypoints in the database / images.
+    - ``putative_matches_per_image``: matches from the matcher (ratio test, cross check)
+      summed over all pairs / images.
+    - ``inlier_matches_per_image``: those of them that two-view verification kept (the
+      inliers of each pair's geometry, 0 for pairs that failed) / images.
+    - ``match_ratio``: "the proportion of detected features that yield putative
+      matches": keypoints in at least one putative match / keypoints.
+    - ``precision``: "the proportion of putative matches yielding inlier matches":
+      inlier matches / putative matches.
+    - ``matching_score``: "the proportion of features yielding inlier matches":
+      keypoints in at least one inlier match / keypoints.
+    - ``points3D``: 3-D points of the reconstructed model (the one with the most
+      registered images), 0 if none.
+    - ``track_length``: "the mean number of images over which a feature is
+      successfully tracked": mean observations per 3-D point of that model.
+    - ``passed``: COLMAP produced a model (the paper's "% pass", per scene), which may
+      hold as few as two images; ``registered``: fraction of the images in that model.
+
+    Ratios with a zero denominator are NaN.
+    """
+    with pycolmap.Database.open(os.fspath(database_path)) as db:
+        images = {im.image_id: im for im in db.read_all_images()}
+        num_keypoints = {i: db.num_keypoints_for_image(i) for i in images}
+        putative_used = {i: np.zeros(n, bool) for i, n in num_keypoints.items()}
+        inlier_used = {i: np.zeros(n, bool) for i, n in num_keypoints.items()}
+        putative = inliers = 0
+        for i, j in combinations(sorted(images), 2):
+            pairs = db.read_matches(i, j) if db.exists_matches(i, j) else np.zeros((0, 2))
+            good = (db.read_two_view_geometry(i, j).inlier_matches
+                    if db.exists_two_view_geometry(i, j) else np.zeros((0, 2)))
+            for matches, used in ((pairs, putative_used), (good, inlier_used)):
+                matches = np.asarray(matches, dtype=np.int64).reshape(-1, 2)
+                used[i][matches[:, 0]] = True
+                used[j][matches[:, 1]] = True
+            putative += len(pairs)
+            inliers += len(good)
+    n_images, n_keypoints = len(images), sum(num_keypoints.values())
+    ratio = lambda a, b: float(a) / b if b else float("nan")  # noqa: E731
+    best = result.best if result is not None else None
+    has_points = best is not None and best.num_points3D() > 0
+    return {
+        "passed": bool(result is not None and result.success),
+        "registered": ratio(best.num_reg_images(), n_images) if best is not None else 0.0,
+        "keypoints_per_image": ratio(n_keypoints, n_images),
+        "putative_matches_per_image": ratio(putative, n_images),
+        "inlier_matches_per_image": ratio(inliers, n_images),
+        "match_ratio": ratio(sum(u.sum() for u in putative_used.values()), n_keypoints),
+        "precision": ratio(inliers, putative),
+        "matching_score": ratio(sum(u.sum() for u in inlier_used.values()), n_keypoints),
+        "points3D": best.num_points3D() if best is not None else 0,
+        "track_length": best.compute_mean_track_length() if has_points else float("nan"),
+    }

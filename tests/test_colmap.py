@@ -1,0 +1,203 @@
+"""liff.colmap: the COLMAP database, matching, mapping and the paper's SfM metrics.
+
+pycolmap is a test dependency (the ``test`` extra): these tests fail, not skip, without it.
+"""
+
+import os
+
+import cv2
+import numpy as np
+import pycolmap  # noqa: F401  - a missing pycolmap must fail here, loudly
+import pytest
+
+import liff
+from liff import captures, colmap
+
+THRESHOLDS = dict(contrastThreshold=0.02, edgeThreshold=10)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    """Centre views of an easy textured scene from 4 poses, with cv2.SIFT features."""
+    cap = captures.make_capture(seed=0, n_poses=4, views=(1, 1), size=(240, 320))
+    sift = cv2.SIFT.create(**THRESHOLDS)
+    images = []
+    for i, view in enumerate(cap.centre_views()):
+        grey = colmap.prepare_light_field(view)
+        keypoints, descriptors = sift.detectAndCompute(grey, None)
+        images.append(colmap.FeatureImage(f"pose{i}.png", grey, keypoints, descriptors))
+    return cap, images
+
+
+@pytest.fixture(scope="module")
+def reconstructed(scene, tmp_path_factory):
+    cap, images = scene
+    work = tmp_path_factory.mktemp("sfm")
+    database, image_dir = work / "database.db", work / "images"
+    k = cap.intrinsics
+    ids = colmap.write_database(database, image_dir, images, focal=k.focal, principal_point=(k.cx, k.cy))
+    colmap.match(database)
+    result = colmap.reconstruct(database, image_dir, work / "sparse", mapper="default")
+    return database, image_dir, ids, result
+
+
+def test_database_round_trip(scene, reconstructed):
+    cap, images = scene
+    database, image_dir, ids, _ = reconstructed
+    with pycolmap.Database.open(str(database)) as db:
+        assert db.num_images() == len(images) and db.num_cameras() == 1
+        camera = db.read_all_cameras()[0]
+        # COLMAP's pixel centres are at +0.5.
+        assert camera.model_name == "SIMPLE_PINHOLE" and camera.has_prior_focal_length
+        assert list(camera.params) == pytest.approx([cap.intrinsics.focal, 160.0, 120.0])
+        assert db.num_keypoints() == sum(len(im.keypoints) for im in images)
+        for image_id, im in zip(ids, images):
+            assert db.read_image(image_id).name == im.name
+            stored = db.read_keypoints(image_id)
+            assert stored.shape == (len(im.keypoints), 4)
+            pts = np.array([k.pt for k in im.keypoints])
+            assert np.allclose(stored[:, :2], pts + 0.5, atol=1e-4)
+            assert np.allclose(stored[:, 2], [k.size / 2 for k in im.keypoints], rtol=1e-6)
+            descriptors = db.read_descriptors(image_id).data
+            assert descriptors.dtype == np.uint8
+            assert np.array_equal(descriptors, im.descriptors.astype(np.uint8))
+            assert os.path.isfile(image_dir / im.name)
+            assert np.array_equal(cv2.imread(str(image_dir / im.name), cv2.IMREAD_UNCHANGED), im.image)
+
+
+def test_keypoint_orientation_and_scale():
+    keypoints = [cv2.KeyPoint(10.0, 20.0, 8.0, 90.0), cv2.KeyPoint(0.0, 0.0, 3.0, -1),
+                 cv2.KeyPoint(5.0, 6.0, 2.0, 270.0)]
+    out = colmap.keypoints_to_colmap(keypoints)
+    assert out.dtype == np.float32 and out.shape == (3, 4)
+    # 90 degrees counter-clockwise on screen (y up) is -pi/2 in y-down image coordinates.
+    assert out[0] == pytest.approx([10.5, 20.5, 4.0, -np.pi / 2])
+    assert out[1] == pytest.approx([0.5, 0.5, 1.5, 0.0])  # no orientation
+    assert out[2, 3] == pytest.approx(np.pi / 2)
+    assert colmap.keypoints_to_colmap([]).shape == (0, 4)
+
+
+def test_reconstruction_of_an_easy_scene(scene, reconstructed):
+    cap, images = scene
+    _, _, ids, result = reconstructed
+    assert result.success and result.num_images == 4
+    best = result.best
+    assert best.num_reg_images() == 4 and best.num_points3D() > 200
+    # Relative rotations between registered images match the ground truth.
+    by_name = {im.name: im for im in best.images.values()}
+    for a in range(4):
+        for b in range(a + 1, 4):
+            ra = by_name[images[a].name].cam_from_world().rotation.matrix()
+            rb = by_name[images[b].name].cam_from_world().rotation.matrix()
+            truth = cap.poses[b].rotation @ cap.poses[a].rotation.T
+            error = np.degrees(np.arccos(np.clip((np.trace(truth.T @ rb @ ra.T) - 1) / 2, -1, 1)))
+            assert error < 0.5
+
+
+def test_table_metrics_are_consistent(scene, reconstructed):
+    _, images = scene
+    database, _, _, result = reconstructed
+    m = colmap.table_metrics(database, result)
+    assert m["passed"] and m["registered"] == 1.0
+    assert m["keypoints_per_image"] == pytest.approx(np.mean([len(im.keypoints) for im in images]))
+    assert 0 < m["inlier_matches_per_image"] <= m["putative_matches_per_image"]
+    assert m["precision"] == pytest.approx(m["inlier_matches_per_image"] / m["putative_matches_per_image"])
+    for key in ("match_ratio", "precision", "matching_score"):
+        assert 0 < m[key] <= 1
+    assert m["matching_score"] <= m["match_ratio"]
+    # A keypoint takes part in at most 3 matches (one per other image), so:
+    assert m["putative_matches_per_image"] * 2 <= 3 * m["match_ratio"] * m["keypoints_per_image"] + 1e-9
+    assert m["points3D"] == result.best.num_points3D()
+    assert m["track_length"] >= 2 and m["track_length"] <= 4
+    # Without a reconstruction the model columns are empty.
+    none = colmap.table_metrics(database, None)
+    assert not none["passed"] and none["points3D"] == 0 and np.isnan(none["track_length"])
+    assert none["precision"] == m["precision"]
+
+
+def test_permissive_mapper_keeps_more_points(reconstructed, tmp_path):
+    database, image_dir, _, default = reconstructed
+    permissive = colmap.reconstruct(database, image_dir, tmp_path / "sparse", mapper="permissive")
+    assert permissive.success
+    # It keeps two-view tracks, which the default mapper ignores.
+    assert permissive.best.num_points3D() > default.best.num_points3D()
+    options = colmap.mapper_options("permissive")
+    assert not options.triangulation.ignore_two_view_tracks
+    assert options.mapper.init_min_num_inliers < colmap.mapper_options().mapper.init_min_num_inliers
+    with pytest.raises(ValueError, match="mapper"):
+        colmap.mapper_options("lenient")
+
+
+def test_root_sift_matches_liffs_own():
+    rng = np.random.default_rng(0)
+    image = cv2.GaussianBlur(rng.random((96, 96)).astype(np.float32), (0, 0), 2) * 4
+    plain = liff.LiFF.create(**THRESHOLDS)
+    rooted = liff.LiFF.create(rootSift=True, **THRESHOLDS)
+    keypoints, sift = plain.detectAndCompute(image)
+    _, expected = rooted.compute(image, keypoints)
+    ours = colmap.root_sift(sift)
+    assert len(keypoints) > 10 and ours.dtype == np.uint8
+    # Same normalisation, but ours starts from descriptors already rounded to 1/512, and
+    # the square root magnifies that rounding near 0 (a SIFT entry of 0 may have been up
+    # to 1/1024, whose root is 512 * sqrt(1/1024 / |d|_1), about 6 here).
+    difference = np.abs(ours.astype(int) - expected.astype(int))
+    assert difference.max() <= 8 and difference.mean() < 0.5
+    ours, expected = ours.astype(float), expected.astype(float)
+    cosine = (ours * expected).sum(1) / np.linalg.norm(ours, axis=1) / np.linalg.norm(expected, axis=1)
+    assert cosine.min() > 0.995
+    norms = np.linalg.norm(ours.astype(float), axis=1)
+    assert np.all(np.abs(norms - 512) < 6)
+
+
+def test_descriptor_errors():
+    kps = [cv2.KeyPoint(1.0, 1.0, 2.0)] * 2
+    good = np.full((2, 128), 40.0, np.float32)
+    assert colmap.descriptors_to_colmap(good, 2).dtype == np.uint8
+    with pytest.raises(ValueError, match="shape"):
+        colmap.descriptors_to_colmap(good[:, :64], 2)
+    with pytest.raises(ValueError, match="2 descriptors for 3 keypoints"):
+        colmap.descriptors_to_colmap(good, 3)
+    with pytest.raises(ValueError, match="unit-norm"):
+        colmap.descriptors_to_colmap(good / 512, 2)
+    with pytest.raises(ValueError, match=r"\[0, 255\]"):
+        colmap.descriptors_to_colmap(good * 10, 2)
+    with pytest.raises(ValueError, match="dtype"):
+        colmap.descriptors_to_colmap(good.astype(np.complex64), 2)
+    with pytest.raises(ValueError, match="None"):
+        colmap.descriptors_to_colmap(None, len(kps))
+    assert colmap.descriptors_to_colmap(None, 0).shape == (0, 128)
+
+
+def test_write_database_errors(tmp_path):
+    image = np.zeros((20, 30), np.uint8)
+    one = colmap.FeatureImage("a.png", image, [cv2.KeyPoint(1.0, 1.0, 2.0)], np.full((1, 128), 9, np.uint8))
+    with pytest.raises(ValueError, match="no images"):
+        colmap.write_database(tmp_path / "a.db", tmp_path / "im", [])
+    with pytest.raises(ValueError, match="repeat"):
+        colmap.write_database(tmp_path / "b.db", tmp_path / "im", [one, one])
+    other = colmap.FeatureImage("b.png", np.zeros((21, 30), np.uint8), [], None)
+    with pytest.raises(ValueError, match="differ in size"):
+        colmap.write_database(tmp_path / "c.db", tmp_path / "im", [one, other])
+    bad = colmap.FeatureImage("b.png", image, one.keypoints * 2, one.descriptors)
+    with pytest.raises(ValueError, match="1 descriptors for 2 keypoints"):
+        colmap.write_database(tmp_path / "d.db", tmp_path / "im", [one, bad])
+    assert not (tmp_path / "d.db").exists()  # nothing written when anything is wrong
+    colmap.write_database(tmp_path / "e.db", tmp_path / "im", [one])
+    with pytest.raises(ValueError, match="fresh"):
+        colmap.write_database(tmp_path / "e.db", tmp_path / "im", [one])
+
+
+def test_prepare_light_field_matches_the_papers_greyscale():
+    rng = np.random.default_rng(1)
+    lf = (0.2 + 0.3 * rng.random((3, 3, 40, 50, 3))).astype(np.float32)  # BGR
+    grey = colmap.prepare_light_field(lf)
+    assert grey.shape == (3, 3, 40, 50) and grey.dtype == np.uint8
+    luminance = cv2.cvtColor(lf[1, 1], cv2.COLOR_BGR2GRAY)
+    centre = np.clip(np.round(np.sqrt(luminance) * 255), 0, 255).astype(np.uint8)
+    assert np.abs(grey[1, 1].astype(int) - cv2.equalizeHist(centre).astype(int)).max() <= 1
+    # One table for all views: equal inputs stay equal across views.
+    same = np.broadcast_to(lf[1, 1, :, :, 1], (3, 3, 40, 50)).copy()
+    assert (colmap.prepare_light_field(same) == colmap.prepare_light_field(same)[1, 1]).all()
+    assert colmap.prepare_light_field(lf[1, 1]).shape == (40, 50)
+    with pytest.raises(ValueError, match="shape"):
+        colmap.prepare_light_field(np.zeros((2, 3, 4)))

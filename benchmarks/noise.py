@@ -32,8 +32,9 @@ from liff.scoring import above_threshold, score_blobs
 HERE = os.path.dirname(os.path.abspath(__file__))
 SHAPE = (9, 9, 256, 256)
 NOISE = [10.0 ** e for e in range(-7, 2)]  # variances 1e-7 .. 10
-THRESHOLDS = [0.01, 0.015, 0.02, 0.03, 0.04, 0.05, 0.06, 0.08, 0.1]  # contrastThreshold
-SWEEP_THRESHOLDS = (0.02, 0.05)  # the two thresholds of the noise sweep
+THRESHOLDS = [0.01, 0.015, 0.02, 0.03, 0.04, 0.042, 0.044, 0.046, 0.048, 0.05, 0.06, 0.08,
+              0.1]  # contrastThreshold (finer where the disks' DoG, ~0.0166 = 0.05 / 3, sits)
+SWEEP_THRESHOLDS = (0.02, 0.04)  # the noise sweep: a low threshold and cv::SIFT's default
 SWEEP_NOISE = (1e-3, 1e-1)  # the two noise levels of the threshold sweep
 METHODS = ("LiFF", "SIFT", "repeated SIFT 0.25", "repeated SIFT 0.12")
 SLOPE_GRID = np.linspace(-1.2, 1.2, 25)

@@ -11,8 +11,9 @@ run in three conditions:
   about 0.5 and Gaussian noise added to every view, of variance 1e-4 (moderate) and
   1e-3 (strong: where SIFT began to fail on the paper's noise scene, benchmarks/noise.py).
 
-Both methods see the same 8-bit input, the paper's greyscale (gamma 0.5, histogram
-equalisation with the centre view's mapping; liff.colmap.prepare_light_field): LiFF the
+Both methods see the same 8-bit input, the paper's greyscale (luminance, gamma 0.5,
+histogram stretch with one mapping for the whole light field, as the authors' code;
+liff.preprocess via liff.colmap.prepare_light_field): LiFF the
 whole light field (11 slopes in [-1, 1]), SIFT (cv2.SIFT) its centre view. Thresholds
 are identical: contrastThreshold 0.02 (the paper's peak threshold 0.0066 = 0.02 / 3 on
 |DoG|), edgeThreshold 10, first octave -1, 3 layers per octave; both descriptors are

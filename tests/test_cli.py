@@ -135,3 +135,32 @@ def test_synth_formats_read_back_for_detect(tmp_path, fmt, name, extra):
     lf = liff.synthetic.textured_layers((5, 5, 64, 80), noise_variance=0.0).light_field
     reference = liff.LiFF.create().detect(lf)
     assert abs(len(features.keypoints) - len(reference)) <= 0.1 * len(reference) + 2
+
+
+@pytest.fixture(scope="module")
+def capture_folder(tmp_path_factory):
+    """Four camera poses of the built-in box scene, each a 5x5-view light field (.npy)."""
+    from liff import captures
+
+    folder = tmp_path_factory.mktemp("capture")
+    capture = captures.make_capture(seed=0, n_poses=4, views=(5, 5), size=(240, 320))
+    for i, lf in enumerate(capture.light_fields):
+        np.save(folder / f"pose{i}.npy", lf)
+    return folder, capture
+
+
+def test_sfm_reconstructs_a_capture(capture_folder, tmp_path, capsys):
+    folder, capture = capture_folder
+    paths = sorted(str(p) for p in folder.glob("pose*.npy"))
+    workspace = tmp_path / "ws"
+    assert main(["sfm", *paths, "--workspace", str(workspace), "--preprocess",
+                 "--contrast-threshold", "0.02", "--focal", str(capture.intrinsics.focal)]) == 0
+    out = capsys.readouterr().out
+    assert "4 images" in out and "a model in" in out
+    assert re.search(r"registered images\s+100%", out)
+    assert int(re.search(r"3D points\s+(\d+)", out).group(1)) > 100
+    assert sorted(os.listdir(workspace / "images")) == [f"pose{i}.png" for i in range(4)]
+    # A second run refuses the existing database unless told to overwrite it.
+    assert main(["colmap", *paths, "--database", str(workspace / "database.db"),
+                 "--image-dir", str(workspace / "images")]) == 1
+    assert "fresh database" in capsys.readouterr().err

@@ -31,6 +31,8 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 import cv2
 import numpy as np
 
+from . import preprocess
+
 try:
     import pycolmap
 except ImportError as error:  # pragma: no cover - exercised only without the extra
@@ -160,7 +162,9 @@ def _as_uint8_image(image: np.ndarray) -> np.ndarray:
 
 
 def prepare_light_field(lf: np.ndarray, gamma: float = 0.5, equalise: bool = True) -> np.ndarray:
-    """The paper's greyscale for SfM: luminance, gamma, histogram equalisation, 8 bits.
+    """The paper's greyscale for SfM in 8 bits: :func:`liff.preprocess.prepare`
+    (luminance, gamma, one histogram mapping for the whole light field, as the
+    authors' code does it), rounded to uint8 so that cv2.SIFT can take the centre view.
 
     Parameters
     ----------
@@ -170,9 +174,7 @@ def prepare_light_field(lf: np.ndarray, gamma: float = 0.5, equalise: bool = Tru
     gamma : float
         Exponent applied to the [0, 1] intensities (the paper: 0.5).
     equalise : bool
-        Histogram equalisation with the centre view's mapping (cv2.equalizeHist's),
-        applied as one look-up table to every view, so that a scene point keeps one
-        intensity across views, as the focal stack assumes.
+        Histogram equalisation ("stretch", see :func:`liff.preprocess.equalize`).
 
     Returns
     -------
@@ -180,34 +182,13 @@ def prepare_light_field(lf: np.ndarray, gamma: float = 0.5, equalise: bool = Tru
         Its centre view is what SIFT on the centre view should see.
     """
     lf = np.asarray(lf)
-    scale = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}.get(lf.dtype, 1.0)
-    x = lf.astype(np.float32) / scale
-    image_dims = 2 if (lf.ndim == 2 or (lf.ndim == 3 and lf.shape[-1] == 3)) else 4
-    if x.ndim == image_dims + 1:  # colour, BGR
-        x = x @ np.array([0.114, 0.587, 0.299], np.float32)
-    if x.ndim not in (2, 4):
+    is_image = lf.ndim == 2 or (lf.ndim == 3 and lf.shape[-1] in (1, 3))
+    if not is_image and lf.ndim not in (4, 5):
         raise ValueError(f"light field has shape {lf.shape}; expected (T, S, V, U[, C]) or (V, U[, C])")
-    grey = np.clip(np.round(np.clip(x, 0, 1) ** gamma * 255), 0, 255).astype(np.uint8)
-    if equalise:
-        centre = grey if grey.ndim == 2 else grey[grey.shape[0] // 2, grey.shape[1] // 2]
-        lut = _equalisation_lut(centre)
-        grey = lut[grey]
-    return grey
-
-
-def _equalisation_lut(image: np.ndarray) -> np.ndarray:
-    """cv2.equalizeHist's mapping of ``image`` (uint8) as a 256-entry table, defined for
-    values the image lacks too (OpenCV: cumulative histogram above the lowest value
-    present, scaled so that the highest maps to 255, rounded)."""
-    hist = np.bincount(image.ravel(), minlength=256).astype(np.float64)
-    lowest = int(np.flatnonzero(hist)[0])
-    total, first = hist.sum(), hist[lowest]
-    if first == total:  # a constant image stays as it is
-        return np.where(np.arange(256) >= lowest, lowest, 0).astype(np.uint8)
-    cumulative = np.cumsum(hist) - first  # counts above the lowest value
-    lut = np.clip(np.round(cumulative * (255.0 / (total - first))), 0, 255)
-    lut[:lowest + 1] = 0
-    return lut.astype(np.uint8)
+    as_light_field = lf[None, None] if is_image else lf
+    grey = preprocess.prepare(as_light_field, luminance=True, gamma=gamma, equalize=equalise)
+    grey = np.round(grey * 255).astype(np.uint8)
+    return grey[0, 0] if is_image else grey
 
 
 # --- the pipeline ----------------------------------------------------------------------

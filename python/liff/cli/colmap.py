@@ -1,6 +1,133 @@
-"""``liff colmap`` and ``liff sfm``: COLMAP databases and reconstructions (filled in
-once liff.colmap lands)."""
+"""``liff colmap`` (a COLMAP database of centre views and LiFF features) and ``liff sfm``
+(that, then exhaustive matching and incremental mapping, with the paper's table)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+
+import cv2
+import numpy as np
+
+from ..feature_file import centre_view, load_features
+from . import common
+from .match import is_feature_file
+
+METRICS = (("registered images", "registered", "{:.0%}"),
+           ("keypoints / image", "keypoints_per_image", "{:.0f}"),
+           ("putative matches / image", "putative_matches_per_image", "{:.0f}"),
+           ("inlier matches / image", "inlier_matches_per_image", "{:.0f}"),
+           ("match ratio", "match_ratio", "{:.3f}"),
+           ("precision", "precision", "{:.3f}"),
+           ("matching score", "matching_score", "{:.3f}"),
+           ("3D points", "points3D", "{}"),
+           ("mean track length", "track_length", "{:.2f}"))
 
 
 def add_parser(sub) -> None:
-    pass
+    for name, helptext in (("colmap", "write centre views and LiFF features into a COLMAP database"),
+                           ("sfm", "COLMAP structure from motion on LiFF features")):
+        p = sub.add_parser(name, help=helptext, description=__doc__)
+        p.add_argument("paths", nargs="+", metavar="PATH",
+                       help="light fields (one per camera pose) or feature files from liff detect")
+        if name == "colmap":
+            p.add_argument("--database", required=True, help="COLMAP database to create")
+            p.add_argument("--image-dir", required=True, help="folder for the centre views")
+        else:
+            p.add_argument("--workspace", required=True,
+                           help="folder for database.db, images/ and sparse/")
+            p.add_argument("--mapper", choices=("default", "permissive"), default="default",
+                           help="COLMAP's default mapper options or permissive ones")
+        p.add_argument("--focal", type=float, default=None,
+                       help="focal length in pixels (default: COLMAP's guess, 1.2 x max side)")
+        p.add_argument("--workers", type=int, default=1, help="processes for detection")
+        p.add_argument("--overwrite", action="store_true", help="replace an existing database")
+        common.add_reader_options(p)
+        common.add_detector_options(p)
+        p.set_defaults(run=run_colmap if name == "colmap" else run_sfm)
+
+
+def features_for_colmap(path: str, options: dict, preprocess: bool, parameters: dict):
+    """(centre view uint8 grey, keypoint rows (N, 7), descriptors) of one input; arrays
+    only, so that worker processes can send them back."""
+    if is_feature_file(path):
+        features = load_features(path)
+        if features.centre_view is None:
+            raise ValueError("the feature file holds no centre view; expected one from liff detect")
+        view, keypoints, descriptors = features.centre_view, features.keypoints, features.descriptors
+    else:
+        from ..colmap import prepare_light_field
+
+        light_field = common.load_light_field(path, options, preprocess=False)
+        if preprocess:  # the paper's 8-bit greyscale, which SIFT on the centre view also gets
+            light_field = prepare_light_field(light_field)
+        keypoints, descriptors = common.make_detector(parameters).detectAndCompute(light_field, None)
+        view = centre_view(light_field)
+    view = np.asarray(view)
+    if view.ndim == 3:
+        view = cv2.cvtColor(view, cv2.COLOR_BGR2GRAY)
+    if view.dtype != np.uint8:
+        scale = 65535.0 if view.dtype == np.uint16 else 1.0
+        view = np.clip(np.round(view / scale * 255), 0, 255).astype(np.uint8)
+    rows = np.array([(k.pt[0], k.pt[1], k.size, k.angle, k.response, k.octave, k.class_id)
+                     for k in keypoints], np.float64).reshape(-1, 7)
+    return view, rows, descriptors
+
+
+def write(args: argparse.Namespace, database: str, image_dir: str) -> int:
+    """Detects (or loads) features of every input and writes the database; returns the
+    number of inputs that failed."""
+    from .. import colmap
+
+    if os.path.exists(database):
+        if not args.overwrite:
+            raise ValueError(f"{database}: exists; COLMAP needs a fresh database (or --overwrite)")
+        os.remove(database)
+    names = [common.output_name(path, ".png") for path in args.paths]
+    if len(set(names)) != len(names):
+        raise ValueError(f"inputs give repeated image names {sorted(names)}; expected distinct "
+                         "file or folder names")
+    jobs = [(path, common.reader_options(args), args.preprocess, common.detector_parameters(args))
+            for path in args.paths]
+    results, failures = common.run_batch(features_for_colmap, jobs, args.workers, args.command,
+                                         label=lambda job: job[0])
+    images = []
+    for name, result in zip(names, results):
+        if result is None:
+            continue
+        view, rows, descriptors = result
+        keypoints = tuple(cv2.KeyPoint(x, y, size, angle, response, int(octave), int(class_id))
+                          for x, y, size, angle, response, octave, class_id in rows.tolist())
+        images.append(colmap.FeatureImage(name, view, keypoints, descriptors))
+    if not images:
+        raise ValueError("no input could be read; nothing written")
+    os.makedirs(os.path.dirname(os.path.abspath(database)), exist_ok=True)
+    colmap.write_database(database, image_dir, images, focal=args.focal)
+    total = sum(len(im.keypoints) for im in images)
+    print(f"{database}: {len(images)} images, {total} LiFF features; centre views in {image_dir}")
+    return failures
+
+
+def run_colmap(args: argparse.Namespace) -> int:
+    return 1 if write(args, args.database, args.image_dir) else 0
+
+
+def run_sfm(args: argparse.Namespace) -> int:
+    from .. import colmap
+
+    database = os.path.join(args.workspace, "database.db")
+    image_dir = os.path.join(args.workspace, "images")
+    sparse = os.path.join(args.workspace, "sparse")
+    if args.overwrite:
+        shutil.rmtree(sparse, ignore_errors=True)
+    failures = write(args, database, image_dir)
+    colmap.match(database)
+    result = colmap.reconstruct(database, image_dir, sparse, args.mapper)
+    metrics = colmap.table_metrics(database, result)
+    print(f"reconstruction ({args.mapper} mapper): "
+          + ("a model in " + sparse if result.success else "FAILED (no model)"))
+    for label, key, fmt in METRICS:
+        value = metrics[key]
+        print(f"  {label:26s} " + ("-" if isinstance(value, float) and np.isnan(value) else fmt.format(value)))
+    return 1 if failures or not result.success else 0

@@ -33,3 +33,11 @@ def test_features_3d_on_the_built_in_scene(tmp_path):
     printed = run_sample("features_3d.py", "--out", str(out), "--hci", "")
     assert float(re.search(r"median \|slope - ground truth\| ([\d.]+)", printed).group(1)) < 0.05
     assert cv2.imread(str(out)) is not None
+
+
+def test_colmap_reconstruction_from_a_folder_of_light_fields(tmp_path):
+    printed = run_sample("colmap_reconstruction.py", "--workspace", str(tmp_path / "ws"))
+    assert printed.count("features") == 5
+    registered = int(re.search(r"registered (\d+)% of 5 images", printed).group(1))
+    assert registered >= 80
+    assert int(re.search(r"(\d+) 3D points", printed).group(1)) > 100

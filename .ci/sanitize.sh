@@ -9,7 +9,7 @@
 #
 # Needs .venv (made by .ci/setup.sh) with liff's Python dependencies installed.
 #   LIFF_SANITIZE_PYTHON=0   C++ tests only
-#   PYTEST_ARGS="-x -k io"   extra arguments for the sanitized pytest run
+#   PYTEST_ARGS="tests/test_properties.py -x"   what pytest runs (default: tests)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 py=.venv/bin/python
@@ -51,4 +51,4 @@ export PYTHONPATH="$PWD/$pkg${PYTHONPATH:+:$PYTHONPATH}"
 "$py" -c "import liff._core as c, sys; sys.exit(0 if c.__file__.startswith('$PWD/$pkg/') else
           'sanitize: liff._core came from ' + c.__file__ + ', not the sanitized build')"
 # shellcheck disable=SC2086  # PYTEST_ARGS is a list of words
-"$py" -m pytest tests -q -p no:cacheprovider ${PYTEST_ARGS:-}
+"$py" -m pytest -q -p no:cacheprovider ${PYTEST_ARGS:-tests}

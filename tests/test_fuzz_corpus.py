@@ -50,8 +50,9 @@ def test_every_known_bug_has_a_reproducer():
 
 
 # All reproducers run in one child with its address space capped, so that
-# cfg-grid-huge ends in a MemoryError rather than in the machine's memory. The
-# sanitizer runtimes (which reserve terabytes of address space) are not preloaded.
+# cfg-grid-huge ends in a MemoryError rather than in the machine's memory. The readers
+# are pure Python: the child uses the installed liff, without .ci/sanitize.sh's
+# sanitized module and preloaded runtimes (ASan reserves terabytes of address space).
 REPLAY = """
 import os, resource, sys
 sys.path.insert(0, sys.argv[1])
@@ -71,10 +72,10 @@ for path in sys.argv[2:]:
 @pytest.fixture(scope="module")
 def replayed():
     """{reproducer name: "CLEAN" or "KNOWN-BUG <id or None> <exception>"}."""
-    env = {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
+    env = {k: v for k, v in os.environ.items() if k not in ("LD_PRELOAD", "PYTHONPATH")}
     proc = subprocess.run([sys.executable, "-c", REPLAY, str(ROOT / "fuzz"), *map(str, KNOWN)],
                           capture_output=True, text=True, timeout=300, env=env)
-    assert proc.returncode == 0, proc.stderr
+    assert proc.returncode == 0, f"exit {proc.returncode}: {proc.stderr}"
     lines = dict(line.split(" ", 1) for line in proc.stdout.splitlines() if " " in line)
     assert set(lines) >= {p.name for p in KNOWN}, proc.stdout
     return lines

@@ -1,0 +1,112 @@
+#!/usr/bin/env python3
+"""Writes the seed inputs of fuzz/corpus/ and the known-bug reproducers of
+fuzz/known_bugs/ (run from anywhere; overwrites seed-* files and reproducers, keeps
+anything else, e.g. inputs a fuzzing run found worth keeping)."""
+
+import os
+import sys
+
+import cv2
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import readers  # noqa: E402
+
+CORPUS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "corpus")
+
+
+def pfm(magic=b"Pf", size=b"2 2", scale=b"-1.0", data=None, sep=b"\n"):
+    channels = 3 if magic == b"PF" else 1
+    if data is None:
+        w, h = (int(x) for x in size.split())
+        dtype = "<f4" if scale.startswith(b"-") else ">f4"
+        data = np.linspace(-1, 1, w * h * channels).astype(dtype).tobytes()
+    return magic + sep + size + sep + scale + sep + data
+
+
+def png(image):
+    ok, buf = cv2.imencode(".png", image)
+    assert ok
+    return buf.tobytes()
+
+
+def view(i, shape=(4, 4, 3), dtype=np.uint8):
+    return png((np.arange(np.prod(shape)).reshape(shape) * (i + 1) % 251).astype(dtype))
+
+
+CFG = b"[extrinsics]\nnum_cams_x = 2\nnum_cams_y = 2\n\n[meta]\ndisp_min = -1.5\ndisp_max = 1.5\n"
+GT = pfm(size=b"4 4")
+
+SEEDS = {
+    "pfm": {
+        "grey-le": pfm(),
+        "colour-be": pfm(b"PF", b"2 1", b"1.0"),
+        "tabs-and-spaces": pfm(size=b"3\t1", sep=b" "),
+        "truncated-data": pfm(size=b"4 4", data=bytes(20)),
+        "truncated-header": b"Pf\n2 ",
+        "bad-magic": pfm(magic=b"P6"),
+        "zero-scale": pfm(scale=b"0", data=bytes(16)),
+        "nan-scale": pfm(scale=b"nan", data=bytes(16)),
+        "negative-width": pfm(size=b"-2 2", data=bytes(16)),
+        "extra-data": pfm() + b"trailing",
+        "empty": b"",
+    },
+    "hci": {
+        "2x2-with-cfg-and-gt": readers.pack_folder(
+            {"parameters.cfg": CFG, "gt_disp_lowres.pfm": GT,
+             **{f"input_Cam{i:03d}.png": view(i) for i in range(4)}}),
+        "1x1-no-cfg-grey": readers.pack_folder({"input_Cam000.png": view(0, (4, 4))}),
+        "2x2-16bit": readers.pack_folder(
+            {f"input_Cam{i:03d}.png": view(i, (4, 4, 3), np.uint16) for i in range(4)}),
+        "missing-view": readers.pack_folder(
+            {"parameters.cfg": CFG, **{f"input_Cam{i:03d}.png": view(i) for i in (0, 1, 3)}}),
+        "mixed-sizes": readers.pack_folder(
+            {"input_Cam000.png": view(0), "input_Cam001.png": view(1, (4, 5, 3)),
+             "input_Cam002.png": view(2), "input_Cam003.png": view(3)}),
+        "corrupt-png": readers.pack_folder({"input_Cam000.png": view(0)[:30]}),
+        "gt-wrong-size": readers.pack_folder(
+            {"input_Cam000.png": view(0), "gt_disp_lowres.pfm": pfm(size=b"3 3")}),
+        "cfg-no-section": readers.pack_folder(
+            {"parameters.cfg": b"num_cams_x = 1\n", "input_Cam000.png": view(0)}),
+        "empty": b"",
+    },
+}
+
+
+# Reproducers of readers.KNOWN_BUGS, written to fuzz/known_bugs/<reader>/<id>.
+def with_cfg(cfg):
+    return readers.pack_folder({"parameters.cfg": cfg,
+                                **{f"input_Cam{i:03d}.png": view(i) for i in range(4)}})
+
+
+KNOWN_BUG_INPUTS = {
+    "hci": {
+        "cfg-not-utf8": with_cfg(CFG + b"comment = caf\xe9\n"),
+        "cfg-percent": with_cfg(CFG + b"focus = 50%\n"),
+        "cfg-grid-not-integer": with_cfg(CFG.replace(b"num_cams_x = 2", b"num_cams_x = 2.0")),
+        "cfg-disp-not-number": with_cfg(CFG.replace(b"-1.5", b"low")),
+        "cfg-grid-zero": with_cfg(CFG.replace(b"= 2", b"= 0")),
+        "cfg-grid-huge": with_cfg(CFG.replace(b"= 2", b"= 100000")),
+    },
+}
+
+
+def main():
+    for name, inputs in KNOWN_BUG_INPUTS.items():
+        folder = os.path.join(os.path.dirname(CORPUS), "known_bugs", name)
+        os.makedirs(folder, exist_ok=True)
+        for bug, data in inputs.items():
+            assert readers.KNOWN_BUGS[bug].reader == name, bug
+            with open(os.path.join(folder, bug), "wb") as f:
+                f.write(data)
+    for name, seeds in SEEDS.items():
+        assert name in readers.BY_NAME, name
+        folder = os.path.join(CORPUS, name)
+        os.makedirs(folder, exist_ok=True)
+        for seed, data in seeds.items():
+            with open(os.path.join(folder, f"seed-{seed}"), "wb") as f:
+                f.write(data)
+
+
+if __name__ == "__main__":
+    main()

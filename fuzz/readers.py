@@ -1,0 +1,174 @@
+"""The readers under test, shared by the fuzz target (fuzz_readers.py), the corpus
+replay (tests/test_fuzz_corpus.py) and the reader property tests.
+
+Adding a reader is one line in READERS: a name (also its corpus folder,
+fuzz/corpus/<name>/), the function, and how the fuzz bytes become its input:
+``file(".ext")`` writes them to one file, ``FOLDER`` unpacks them into a folder
+(see unpack_folder). The contract every reader is held to: a clean result or a
+ValueError that names the path it was given; anything else is a finding.
+"""
+
+from __future__ import annotations
+
+import configparser
+import os
+import re
+import shutil
+import tempfile
+from dataclasses import dataclass
+from typing import Callable, Optional
+
+import numpy as np
+
+import liff.io
+
+
+@dataclass(frozen=True)
+class Reader:
+    name: str
+    read: Callable
+    suffix: Optional[str]  # the input file's name ending; None: the input is a folder
+
+
+def file(suffix: str) -> Optional[str]:
+    return suffix
+
+
+FOLDER = None
+
+READERS = [
+    Reader("pfm", liff.io.read_pfm, file(".pfm")),
+    Reader("hci", liff.io.read_hci, FOLDER),
+]
+BY_NAME = {r.name: r for r in READERS}
+
+
+@dataclass(frozen=True)
+class KnownBug:
+    reader: str
+    exception: type  # the exception raised (or chained to the Finding)
+    message: str  # a regular expression its message matches
+    what: str
+
+
+# Reader bugs found by fuzzing, reported and not yet fixed (the readers are not ours to
+# change here). The fuzz target lets an input that hits one pass, so that a run goes
+# on to find new ones, and counts the hits. Each has a reproducer
+# fuzz/known_bugs/<reader>/<id> that tests/test_fuzz_corpus.py replays as a strict
+# xfail: once the bug is fixed that test fails until the entry below is removed (and
+# the reproducer moved into fuzz/corpus/<reader>/).
+KNOWN_BUGS = {
+    "cfg-not-utf8": KnownBug(
+        "hci", UnicodeDecodeError, r"codec can't decode",
+        "parameters.cfg that is not UTF-8: UnicodeDecodeError without the file name"),
+    "cfg-percent": KnownBug(
+        "hci", configparser.InterpolationError, r"'%'",
+        "a '%' in any parameters.cfg value: configparser.InterpolationSyntaxError, "
+        "not ValueError (ConfigParser interpolates; RawConfigParser would not)"),
+    "cfg-grid-not-integer": KnownBug(
+        "hci", ValueError, r"^invalid literal for int\(\)",
+        "num_cams_x/num_cams_y not an integer: int()'s ValueError, without the file name"),
+    "cfg-disp-not-number": KnownBug(
+        "hci", ValueError, r"^could not convert string to float",
+        "disp_min/disp_max not a number: float()'s ValueError, without the file name"),
+    "cfg-grid-zero": KnownBug(
+        "hci", AssertionError, r"light_field is NoneType",
+        "num_cams_x = 0 (or negative): returns an HciScene whose light_field is None"),
+    "cfg-grid-huge": KnownBug(
+        "hci", MemoryError, r"",
+        "num_cams_x = num_cams_y = 100000: set(range(T * S)) allocates until MemoryError "
+        "(or the OOM killer); a 60-byte file can take the machine's memory"),
+}
+
+
+def known_bug(reader: Reader, error: BaseException) -> Optional[str]:
+    """The id of the known bug ``error`` is an instance of, or None."""
+    for bug_id, bug in KNOWN_BUGS.items():
+        if bug.reader != reader.name:
+            continue
+        for e in (error, error.__cause__):
+            if isinstance(e, bug.exception) and re.search(bug.message, str(e)):
+                return bug_id
+    return None
+
+# Folder inputs are a sequence of files, each introduced by a line "%%file NAME":
+#   %%file parameters.cfg\n<bytes>\n%%file input_Cam000.png\n<bytes>...
+# (the newline before a header belongs to the header). Names are single path
+# components; anything before the first header, and files with names that are not
+# plain, are ignored.
+_HEADER = re.compile(rb"(?:^|\n)%%file ([^\n]{1,100})\n")
+_PLAIN = re.compile(r"^[A-Za-z0-9_.-]+$")
+
+
+def pack_folder(files: dict) -> bytes:
+    """The fuzz input that unpacks to ``files`` ({name: bytes})."""
+    return b"".join(b"%%file " + name.encode() + b"\n" + data + b"\n" for name, data in files.items())
+
+
+def unpack_folder(data: bytes, folder: str) -> None:
+    parts = _HEADER.split(data)
+    for i in range(1, len(parts) - 1, 2):
+        try:
+            name = parts[i].decode("ascii")
+        except UnicodeDecodeError:
+            continue
+        if _PLAIN.match(name) and name not in (".", ".."):
+            content = parts[i + 1]
+            with open(os.path.join(folder, name), "wb") as f:
+                f.write(content[:-1] if i + 2 < len(parts) and content.endswith(b"\n") else content)
+
+
+def materialise(reader: Reader, data: bytes, workdir: str) -> str:
+    """Writes ``data`` as the reader's input inside ``workdir``; returns its path."""
+    if reader.suffix is None:
+        path = os.path.join(workdir, "scene")
+        os.mkdir(path)
+        unpack_folder(data, path)
+    else:
+        path = os.path.join(workdir, "input" + reader.suffix)
+        with open(path, "wb") as f:
+            f.write(data)
+    return path
+
+
+class Finding(AssertionError):
+    """A reader broke its contract."""
+
+
+def check_result(reader: Reader, result) -> None:
+    """What a clean result looks like: arrays are finite-sized numpy arrays; a scene
+    object has a light field of shape (T, S, V, U[, C])."""
+    arrays = [result] if isinstance(result, np.ndarray) else []
+    lf = getattr(result, "light_field", None)
+    if lf is not None or hasattr(result, "light_field"):
+        if not isinstance(lf, np.ndarray) or lf.ndim not in (4, 5) or lf.size == 0:
+            raise Finding(f"{reader.name}: light_field is {type(lf).__name__} "
+                          f"{getattr(lf, 'shape', '')}; expected a non-empty (T, S, V, U[, C]) array")
+        arrays.append(lf)
+    if not arrays:
+        raise Finding(f"{reader.name}: returned {type(result).__name__}, no array")
+    for a in arrays:
+        if a.size == 0:
+            raise Finding(f"{reader.name}: returned an empty array of shape {a.shape}")
+
+
+def run_reader(reader: Reader, data: bytes, workdir: Optional[str] = None):
+    """Feeds ``data`` to ``reader``. Returns the result, or the ValueError it raised
+    (whose message must name the path). Raises Finding, or lets any other exception
+    through, when the contract is broken."""
+    own = workdir is None
+    workdir = tempfile.mkdtemp(prefix="liff-fuzz-") if own else workdir
+    try:
+        path = materialise(reader, data, workdir)
+        try:
+            result = reader.read(path)
+        except ValueError as e:
+            if path not in str(e):
+                raise Finding(f"{reader.name}: ValueError does not name the input "
+                              f"{path!r}: {e}") from e
+            return e
+        check_result(reader, result)
+        return result
+    finally:
+        if own:
+            shutil.rmtree(workdir, ignore_errors=True)

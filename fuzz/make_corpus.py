@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
-"""Writes the seed inputs of fuzz/corpus/ and the known-bug reproducers of
-fuzz/known_bugs/ (run from anywhere; overwrites seed-* files and reproducers, keeps
-anything else, e.g. inputs a fuzzing run found worth keeping)."""
+"""Writes the seed inputs of fuzz/corpus/ (seed-*) and the reproducers of bugs found
+and fixed (bug-*, kept as regression seeds) and of readers.KNOWN_BUGS (fuzz/known_bugs/)
+(run from anywhere; overwrites those files, keeps anything else, e.g. inputs a fuzzing
+run found worth keeping)."""
 
 import os
 import sys
@@ -73,7 +74,8 @@ SEEDS = {
 }
 
 
-# Reproducers of readers.KNOWN_BUGS, written to fuzz/known_bugs/<reader>/<id>.
+# Reproducers of bugs found by fuzzing: fuzz/corpus/<reader>/bug-<id> once fixed,
+# fuzz/known_bugs/<reader>/<id> while listed in readers.KNOWN_BUGS.
 def with_cfg(cfg):
     return readers.pack_folder({"parameters.cfg": cfg,
                                 **{f"input_Cam{i:03d}.png": view(i) for i in range(4)}})
@@ -93,11 +95,12 @@ KNOWN_BUG_INPUTS = {
 
 def main():
     for name, inputs in KNOWN_BUG_INPUTS.items():
-        folder = os.path.join(os.path.dirname(CORPUS), "known_bugs", name)
-        os.makedirs(folder, exist_ok=True)
         for bug, data in inputs.items():
-            assert readers.KNOWN_BUGS[bug].reader == name, bug
-            with open(os.path.join(folder, bug), "wb") as f:
+            known = bug in readers.KNOWN_BUGS
+            folder = (os.path.join(os.path.dirname(CORPUS), "known_bugs", name) if known
+                      else os.path.join(CORPUS, name))
+            os.makedirs(folder, exist_ok=True)
+            with open(os.path.join(folder, bug if known else f"bug-{bug}"), "wb") as f:
                 f.write(data)
     for name, seeds in SEEDS.items():
         assert name in readers.BY_NAME, name

@@ -10,7 +10,6 @@ ValueError that names the path it was given; anything else is a finding.
 
 from __future__ import annotations
 
-import configparser
 import os
 import re
 import shutil
@@ -51,34 +50,14 @@ class KnownBug:
     what: str
 
 
-# Reader bugs found by fuzzing, reported and not yet fixed (the readers are not ours to
-# change here). The fuzz target lets an input that hits one pass, so that a run goes
-# on to find new ones, and counts the hits. Each has a reproducer
-# fuzz/known_bugs/<reader>/<id> that tests/test_fuzz_corpus.py replays as a strict
-# xfail: once the bug is fixed that test fails until the entry below is removed (and
-# the reproducer moved into fuzz/corpus/<reader>/).
-KNOWN_BUGS = {
-    "cfg-not-utf8": KnownBug(
-        "hci", UnicodeDecodeError, r"codec can't decode",
-        "parameters.cfg that is not UTF-8: UnicodeDecodeError without the file name"),
-    "cfg-percent": KnownBug(
-        "hci", configparser.InterpolationError, r"'%'",
-        "a '%' in any parameters.cfg value: configparser.InterpolationSyntaxError, "
-        "not ValueError (ConfigParser interpolates; RawConfigParser would not)"),
-    "cfg-grid-not-integer": KnownBug(
-        "hci", ValueError, r"^invalid literal for int\(\)",
-        "num_cams_x/num_cams_y not an integer: int()'s ValueError, without the file name"),
-    "cfg-disp-not-number": KnownBug(
-        "hci", ValueError, r"^could not convert string to float",
-        "disp_min/disp_max not a number: float()'s ValueError, without the file name"),
-    "cfg-grid-zero": KnownBug(
-        "hci", AssertionError, r"light_field is NoneType",
-        "num_cams_x = 0 (or negative): returns an HciScene whose light_field is None"),
-    "cfg-grid-huge": KnownBug(
-        "hci", MemoryError, r"",
-        "num_cams_x = num_cams_y = 100000: set(range(T * S)) allocates until MemoryError "
-        "(or the OOM killer); a 60-byte file can take the machine's memory"),
-}
+# Reader bugs found by fuzzing, reported and not yet fixed. The fuzz target lets an
+# input that hits one pass, so that a run goes on to find new ones, and counts the
+# hits. Each has a reproducer fuzz/known_bugs/<reader>/<id> that
+# tests/test_fuzz_corpus.py replays as a strict xfail: once the bug is fixed that test
+# fails until the entry below is removed and the reproducer moved into
+# fuzz/corpus/<reader>/. The six parameters.cfg bugs of read_hci found on 2026-11-23
+# are fixed; their reproducers are fuzz/corpus/hci/bug-*.
+KNOWN_BUGS: dict = {}
 
 
 def known_bug(reader: Reader, error: BaseException) -> Optional[str]:

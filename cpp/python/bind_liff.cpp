@@ -4,7 +4,11 @@
 
 #include <pybind11/stl.h>
 
+#include <cctype>
+#include <climits>
+#include <map>
 #include <string>
+#include <type_traits>
 
 namespace liff {
 namespace python {
@@ -41,18 +45,69 @@ py::tuple run(const PyLiFF& self, const py::array& lf, const py::object& mask,
   return py::make_tuple(keypointsToArray(keypoints), desc);
 }
 
+// Python number -> C++ int or double for parameter `name`. pybind11 alone rejects an
+// int beyond C's range as "incompatible function arguments" (TypeError); here such
+// values raise ValueError naming the parameter, and non-numbers raise TypeError.
+template <typename T>
+T number(const py::handle& value, const char* name) {
+  const std::string what = std::string(name) + " = " + std::string(py::repr(value));
+  if constexpr (std::is_same_v<T, bool>) {
+    return value.cast<bool>();
+  } else if constexpr (std::is_same_v<T, int>) {
+    if (PyFloat_Check(value.ptr())) throw py::type_error(what + "; expected an integer");
+    const py::object index = py::reinterpret_steal<py::object>(PyNumber_Index(value.ptr()));
+    if (!index) {
+      PyErr_Clear();
+      throw py::type_error(what + "; expected an integer");
+    }
+    int overflow = 0;
+    const long long v = PyLong_AsLongLongAndOverflow(index.ptr(), &overflow);
+    if (overflow != 0 || v < INT_MIN || v > INT_MAX)
+      throw py::value_error(what + "; expected an integer in the 32-bit range (and see the "
+                                   "parameter's own range)");
+    return int(v);
+  } else {
+    const double v = PyFloat_AsDouble(value.ptr());
+    if (v == -1.0 && PyErr_Occurred()) {
+      const bool overflow = PyErr_ExceptionMatches(PyExc_OverflowError);
+      PyErr_Clear();
+      if (overflow) throw py::value_error(what + "; expected a value a double can hold");
+      throw py::type_error(what + "; expected a number");
+    }
+    return v;
+  }
+}
+
+// The create() keyword of a setter: "NFeatures" -> "nfeatures", "NOctaveLayers" ->
+// "nOctaveLayers", "ContrastThreshold" -> "contrastThreshold".
+const char* paramName(const char* setterName) {
+  static const std::map<std::string, std::string> names = {
+      {"NFeatures", "nfeatures"}, {"NOctaveLayers", "nOctaveLayers"}};
+  static thread_local std::string name;
+  const auto it = names.find(setterName);
+  name = it != names.end() ? it->second : std::string(setterName);
+  if (it == names.end()) name[0] = char(std::tolower(name[0]));
+  return name.c_str();
+}
+
 }  // namespace
 
 void BindLiFF(py::module_& m) {
   py::class_<PyLiFF> cls(m, "LiFF", R"doc(
 LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 types).
 )doc");
-  cls.def(py::init([](int nfeatures, int nOctaveLayers, double contrastThreshold,
-                      double edgeThreshold, double sigma, double firstSlope, double lastSlope,
-                      int numSlopes, int descriptorType, bool rootSift) {
-            return PyLiFF{LiFF::create(nfeatures, nOctaveLayers, contrastThreshold,
-                                       edgeThreshold, sigma, firstSlope, lastSlope, numSlopes,
-                                       descriptorType, rootSift)};
+  cls.def(py::init([](const py::object& nfeatures, const py::object& nOctaveLayers,
+                      const py::object& contrastThreshold, const py::object& edgeThreshold,
+                      const py::object& sigma, const py::object& firstSlope,
+                      const py::object& lastSlope, const py::object& numSlopes,
+                      const py::object& descriptorType, bool rootSift) {
+            return PyLiFF{LiFF::create(
+                number<int>(nfeatures, "nfeatures"), number<int>(nOctaveLayers, "nOctaveLayers"),
+                number<double>(contrastThreshold, "contrastThreshold"),
+                number<double>(edgeThreshold, "edgeThreshold"), number<double>(sigma, "sigma"),
+                number<double>(firstSlope, "firstSlope"), number<double>(lastSlope, "lastSlope"),
+                number<int>(numSlopes, "numSlopes"), number<int>(descriptorType, "descriptorType"),
+                rootSift)};
           }),
           "nfeatures"_a = 0, "nOctaveLayers"_a = 3, "contrastThreshold"_a = 0.04,
           "edgeThreshold"_a = 10.0, "sigma"_a = 1.6, "firstSlope"_a = -1.0, "lastSlope"_a = 1.0,
@@ -61,8 +116,9 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
 
 #define LIFF_BIND_PARAM(Name, Type, Doc)                                                    \
   cls.def("get" #Name, [](const PyLiFF& s) { return s.impl->get##Name(); }, "Returns " Doc); \
-  cls.def("set" #Name, [](PyLiFF& s, Type v) { s.impl->set##Name(v); }, "value"_a,            \
-          "Sets " Doc " Raises ValueError if out of range.");
+  cls.def("set" #Name,                                                                        \
+          [](PyLiFF& s, const py::object& v) { s.impl->set##Name(number<Type>(v, paramName(#Name))); }, \
+          "value"_a, "Sets " Doc " Raises ValueError if out of range.");
   LIFF_BIND_PARAM(NFeatures, int, "the number of best features kept (0 = all).")
   LIFF_BIND_PARAM(NOctaveLayers, int, "the number of DoG layers per octave.")
   LIFF_BIND_PARAM(ContrastThreshold, double, "the contrast threshold (cv::SIFT meaning).")

@@ -74,6 +74,7 @@ std::vector<double> slopeGrid(double first, double last, int n) {
     return slopes;
   }
   for (int i = 0; i < n; ++i) slopes.push_back(first + (last - first) * i / double(n - 1));
+  slopes.back() = last;  // the formula can round one ulp past `last`
   return slopes;
 }
 

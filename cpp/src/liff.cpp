@@ -126,6 +126,8 @@ class LiFF_Impl : public LiFF {
   double getMemoryLimitMB() const override { return memoryLimitMB_; }
 
   std::vector<double> slopesFor(int T, int S) const override {
+    require(T >= 1 && S >= 1,
+            cv::format("T = %d, S = %d views; expected at least 1 view in each direction", T, S));
     require(firstSlope_ <= lastSlope_,
             cv::format("firstSlope = %g > lastSlope = %g; expected firstSlope <= lastSlope",
                        firstSlope_, lastSlope_));

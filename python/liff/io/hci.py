@@ -20,6 +20,7 @@ from .pfm import read_pfm
 
 PathLike = Union[str, os.PathLike]
 _VIEW = re.compile(r"^input_Cam(\d{3})\.png$")
+MAX_VIEWS = 1000  # input_Cam000 .. input_Cam999
 
 
 @dataclass
@@ -32,6 +33,17 @@ class HciScene:
     disp_max: Optional[float]
     gt_disparity: Optional[np.ndarray]
     parameters: dict = field(default_factory=dict)
+
+
+def _number(text: str, kind, name: str, path: str):
+    """int(text) or float(text), or a ValueError naming the file and the entry."""
+    try:
+        value = kind(text.strip())
+    except ValueError:
+        raise ValueError(f"{path}: {name} = {text!r}; expected {'an integer' if kind is int else 'a number'}") from None
+    if kind is float and not np.isfinite(value):
+        raise ValueError(f"{path}: {name} = {text!r}; expected a finite number")
+    return value
 
 
 def read_hci(folder: PathLike) -> HciScene:
@@ -57,15 +69,24 @@ def read_hci(folder: PathLike) -> HciScene:
     parameters, T, S = {}, None, None
     cfg_path = os.path.join(folder, "parameters.cfg")
     if os.path.isfile(cfg_path):
-        cfg = configparser.ConfigParser()
+        # No interpolation: a '%' in a value is text, not a configparser reference.
+        cfg = configparser.ConfigParser(interpolation=None)
         try:
-            cfg.read(cfg_path)
-        except configparser.Error as e:
-            raise ValueError(f"{cfg_path}: unreadable ({e})") from None
+            with open(cfg_path, encoding="utf-8") as f:
+                cfg.read_file(f)
+        except (configparser.Error, UnicodeDecodeError) as e:
+            raise ValueError(f"{cfg_path}: unreadable ({e}); expected an HCI parameters.cfg "
+                             "(UTF-8 INI)") from None
         parameters = {s: dict(cfg[s]) for s in cfg.sections()}
         ext = parameters.get("extrinsics", {})
         if "num_cams_x" in ext and "num_cams_y" in ext:
-            S, T = int(ext["num_cams_x"]), int(ext["num_cams_y"])
+            S = _number(ext["num_cams_x"], int, "extrinsics num_cams_x", cfg_path)
+            T = _number(ext["num_cams_y"], int, "extrinsics num_cams_y", cfg_path)
+            # A positive grid of at most 999 views (NNN in the names): checked before
+            # the missing views are listed, so a huge grid costs no memory.
+            if T < 1 or S < 1 or T * S > MAX_VIEWS:
+                raise ValueError(f"{cfg_path}: grid num_cams_y x num_cams_x = {T}x{S}; expected "
+                                 f"a positive grid of at most {MAX_VIEWS} views")
     if T is None:  # no grid given: a square grid of all views
         n = int(round(np.sqrt(len(views))))
         if n * n != len(views):
@@ -92,8 +113,8 @@ def read_hci(folder: PathLike) -> HciScene:
         lf[index // S, index % S] = image
 
     meta = parameters.get("meta", {})
-    disp_min = float(meta["disp_min"]) if "disp_min" in meta else None
-    disp_max = float(meta["disp_max"]) if "disp_max" in meta else None
+    disp_min = _number(meta["disp_min"], float, "meta disp_min", cfg_path) if "disp_min" in meta else None
+    disp_max = _number(meta["disp_max"], float, "meta disp_max", cfg_path) if "disp_max" in meta else None
     gt_path = os.path.join(folder, "gt_disp_lowres.pfm")
     gt = read_pfm(gt_path) if os.path.isfile(gt_path) else None
     if gt is not None and gt.shape != first[:2]:

@@ -29,8 +29,11 @@ def read_pfm(path: PathLike) -> np.ndarray:
         If the file is not a well-formed PFM (names the file and what was wrong).
     """
     path = os.fspath(path)
-    with open(path, "rb") as f:
-        data = f.read()
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise ValueError(f"{path}: cannot read ({e.strerror}); expected a PFM file") from None
     # Header: three whitespace-separated tokens after the magic, then one whitespace byte.
     tokens, pos = [], 0
     while len(tokens) < 4:
@@ -47,6 +50,8 @@ def read_pfm(path: PathLike) -> np.ndarray:
     if magic not in (b"Pf", b"PF"):
         raise ValueError(f"{path}: not a PFM file (magic {magic[:8]!r}; expected b'Pf' or b'PF')")
     try:
+        if not (tokens[1].isdigit() and tokens[2].isdigit()):  # int() would take "1_0", "+3"
+            raise ValueError
         width, height, scale = int(tokens[1]), int(tokens[2]), float(tokens[3])
     except ValueError:
         raise ValueError(f"{path}: bad PFM header {b' '.join(tokens)!r}; expected integer width "

@@ -4,6 +4,7 @@ and fixed (bug-*, kept as regression seeds) and of readers.KNOWN_BUGS (fuzz/know
 (run from anywhere; overwrites those files, keeps anything else, e.g. inputs a fuzzing
 run found worth keeping)."""
 
+import io
 import os
 import sys
 
@@ -72,6 +73,62 @@ SEEDS = {
         "empty": b"",
     },
 }
+
+
+def npy(array):
+    buffer = io.BytesIO()
+    np.save(buffer, array, allow_pickle=True)
+    return buffer.getvalue()
+
+
+def npz(**arrays):
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    return buffer.getvalue()
+
+
+LF = (np.arange(2 * 2 * 3 * 4) % 7 / 7).reshape(2, 2, 3, 4).astype(np.float32)
+SEEDS.update({
+    "views": {
+        "2x2-padded": readers.pack_folder({f"scene_{t:02d}_{s:02d}.png": view(2 * t + s)
+                                           for t in range(2) for s in range(2)}),
+        "2x2-one-based": readers.pack_folder({f"{t}_{s}.png": view(t + s)
+                                              for t in (1, 2) for s in (1, 2)}),
+        "missing-view": readers.pack_folder({f"v_{t}_{s}.png": view(t) for t, s in ((0, 0), (0, 1), (1, 0))}),
+        "mixed-sizes": readers.pack_folder({"v_0_0.png": view(0), "v_0_1.png": view(1, (4, 5, 3))}),
+        "no-views": readers.pack_folder({"notes.txt": b"nothing here"}),
+    },
+    "eslf": {
+        "rgba-8x8": png((np.arange(8 * 8 * 4).reshape(8, 8, 4) % 255).astype(np.uint8)),
+        "grey-odd-size": png((np.arange(7 * 9).reshape(7, 9) % 255).astype(np.uint8)),
+        "16bit-bgr": png((np.arange(6 * 6 * 3).reshape(6, 6, 3) * 999 % 65535).astype(np.uint16)),
+        "corrupt": png(np.zeros((4, 4), np.uint8))[:25],
+        "empty": b"",
+    },
+    "mosaic": {
+        "rgb-8x8": png((np.arange(8 * 8 * 3).reshape(8, 8, 3) % 255).astype(np.uint8)),
+        "not-divisible": png(np.zeros((7, 8), np.uint8)),
+        "corrupt": png(np.zeros((4, 4), np.uint8))[:25],
+    },
+    "npy": {
+        "float32-4d": npy(LF),
+        "uint8-5d-bgra": npy((LF[..., None].repeat(4, -1) * 255).astype(np.uint8)),
+        "2d": npy(np.zeros((3, 3), np.float32)),
+        "object": npy(np.array([None, 1], dtype=object)),
+        "garbage": b"\x93NUMPY\x01\x00garbage",
+    },
+    "npz": {
+        "light-field-key": npz(light_field=LF, gt_disparity=np.zeros((3, 4), np.float32)),
+        "only-array": npz(data=LF),
+        "two-arrays-no-key": npz(a=LF, b=LF),
+        "not-a-zip": b"PK\x03\x04broken",
+    },
+    "any": {
+        "npz-light-field": npz(light_field=LF),
+        "npz-bad-dtype": npz(light_field=LF.astype(np.complex64)),
+        "empty-zip": npz(),
+    },
+})
 
 
 # Reproducers of bugs found by fuzzing: fuzz/corpus/<reader>/bug-<id> once fixed,

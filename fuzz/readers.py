@@ -38,6 +38,12 @@ FOLDER = None
 READERS = [
     Reader("pfm", liff.io.read_pfm, file(".pfm")),
     Reader("hci", liff.io.read_hci, FOLDER),
+    Reader("views", liff.io.read_views, FOLDER),
+    Reader("eslf", lambda path: liff.io.read_eslf(path, n=2), file(".eslf.png")),
+    Reader("mosaic", lambda path: liff.io.read_mosaic(path, grid=(2, 2)), file(".png")),
+    Reader("npy", liff.io.read_numpy, file(".npy")),
+    Reader("npz", liff.io.read_numpy, file(".npz")),
+    Reader("any", liff.io.read_light_field, file(".npz")),
 ]
 BY_NAME = {r.name: r for r in READERS}
 

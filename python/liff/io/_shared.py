@@ -58,6 +58,9 @@ def check_light_field(array: np.ndarray, source: str) -> np.ndarray:
         Naming ``source``: not 4-D or 5-D, an empty axis, C not in {1, 2, 3, 4}, or a
         dtype other than uint8, uint16, float32, float64.
     """
+    if not isinstance(array, np.ndarray):  # e.g. a .npz member that is not a .npy
+        raise ValueError(f"{source}: holds {type(array).__name__}, not an array; expected a "
+                         f"light field (T, S, V, U) or (T, S, V, U, C)")
     if array.ndim not in (4, 5):
         raise ValueError(f"{source}: array has shape {array.shape}; expected a light field "
                          f"(T, S, V, U) or (T, S, V, U, C)")

@@ -7,7 +7,6 @@ Write them with numpy itself: ``np.save(path, lf)`` or
 from __future__ import annotations
 
 import os
-import zipfile
 from typing import Optional
 
 import numpy as np
@@ -47,8 +46,9 @@ def read_numpy(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
     path = os.fspath(path)
     try:
         loaded = np.load(path, allow_pickle=False)
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as e:
-        raise ValueError(f"{path}: unreadable ({e}); expected a .npy or .npz file") from None
+    except Exception as e:  # numpy's header parsing raises many kinds on a bad file
+        raise ValueError(f"{path}: unreadable ({type(e).__name__}: {e}); expected a .npy or "
+                         ".npz file") from None
     if isinstance(loaded, np.ndarray):
         if key is not None:
             raise ValueError(f"{path}: key {key!r} given for a .npy file; expected a .npz file")
@@ -68,8 +68,13 @@ def read_numpy(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
                                  f"a single array, or key=...")
         if key not in keys:
             raise ValueError(f"{path}: no array {key!r}; expected one of {keys}")
-        light_field = check_light_field(loaded[key], f"{path}[{key!r}]")
-        disparity = loaded[DISPARITY_KEY] if DISPARITY_KEY in keys and key != DISPARITY_KEY else None
+        try:  # members are read (and their headers parsed) only now
+            array = loaded[key]
+            disparity = loaded[DISPARITY_KEY] if DISPARITY_KEY in keys and key != DISPARITY_KEY else None
+        except Exception as e:
+            raise ValueError(f"{path}: array {key!r} unreadable ({type(e).__name__}: {e}); "
+                             "expected a .npz written by numpy") from None
+        light_field = check_light_field(array, f"{path}[{key!r}]")
     if disparity is not None:
         if disparity.shape != light_field.shape[2:4]:
             raise ValueError(f"{path}[{DISPARITY_KEY!r}]: shape {disparity.shape}; expected the "

@@ -8,6 +8,7 @@ two ``_``-separated whole numbers of the name (without its ending) are the view 
 
 from __future__ import annotations
 
+import itertools
 import os
 import re
 from typing import Dict, List, Optional, Pattern, Tuple, Union
@@ -88,10 +89,13 @@ def _arrange(folder: str, numbered: Dict[Tuple[int, int], str], grid, linear: bo
         if found_t > T or found_s > S:
             raise ValueError(f"{folder}: names number views up to a {found_t}x{found_s} grid "
                              f"(first index {first}); expected grid={T, S} to hold them")
-    missing = [(t, s) for t in range(T) for s in range(S) if (t, s) not in views]
-    if missing:
+    missing_count = T * S - len(views)  # views holds distinct (t, s) inside the grid
+    if missing_count:
+        # Name the first few without listing a grid that huge indices can make enormous.
+        missing = itertools.islice(((t, s) for t in range(T) for s in range(S)
+                                    if (t, s) not in views), 6)
         shown = [f"(t={t + first}, s={s + first})" for t, s in missing]
-        raise ValueError(f"{folder}: {len(missing)} views missing for a {T}x{S} grid "
+        raise ValueError(f"{folder}: {missing_count} views missing for a {T}x{S} grid "
                          f"(first index {first}): {describe_missing(shown)}")
     return T, S, first, views
 

@@ -75,11 +75,11 @@ def features(lf_uint8: np.ndarray, method: str):
     return keypoints, colmap.root_sift(descriptors)
 
 
-def run_colmap(capture: captures.Capture, method: str, workdir: str) -> dict:
+def run_colmap(capture: captures.Capture, method: str, workdir: str, equalize: str) -> dict:
     """Features, matching and both mappers on one capture: {mapper: metrics}."""
     images = []
     for i, lf in enumerate(capture.light_fields):
-        grey = colmap.prepare_light_field(lf)
+        grey = colmap.prepare_light_field(lf, equalise=equalize)
         keypoints, descriptors = features(grey, method)
         T, S = grey.shape[:2]
         images.append(colmap.FeatureImage(f"pose{i:02d}.png", grey[T // 2, S // 2], keypoints, descriptors))
@@ -105,7 +105,7 @@ def scene_captures(seed: int, setup: dict):
     yield "occluders", captures.make_capture(seed, occluders=True, **common)
 
 
-def run(setup: dict, progress: bool = True) -> list:
+def run(setup: dict, progress: bool = True, equalize: str = "stretch") -> list:
     """Rows of (scene, condition, method, {mapper: metrics})."""
     try:
         from tqdm import tqdm
@@ -119,7 +119,7 @@ def run(setup: dict, progress: bool = True) -> list:
             for method in METHODS:
                 workdir = tempfile.mkdtemp(prefix="liff-sfm-")
                 try:
-                    rows.append((seed, condition, method, run_colmap(capture, method, workdir)))
+                    rows.append((seed, condition, method, run_colmap(capture, method, workdir, equalize)))
                 finally:
                     shutil.rmtree(workdir, ignore_errors=True)
                 if bar:
@@ -186,18 +186,22 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default=os.path.join(HERE, "..", "docs", "results", "sfm_table.md"),
                         help="markdown file for the tables (default docs/results/sfm_table.md)")
     parser.add_argument("--no-progress", action="store_true")
+    parser.add_argument("--equalize", choices=("stretch", "cdf"), default="stretch",
+                        help="histogram step of the preprocessing (liff.preprocess.equalize): "
+                             "the authors' code's stretch (default) or classic equalisation")
     args = parser.parse_args(argv)
     import pycolmap
 
     pycolmap.logging.minloglevel = 2  # COLMAP's INFO/WARNING lines would drown the tables
     setup = QUICK if args.quick else FULL
     start = time.time()
-    rows = run(setup, progress=not args.no_progress)
+    rows = run(setup, progress=not args.no_progress, equalize=args.equalize)
     T, S = setup["views"]
     header = (f"{setup['scenes']} scenes x {len(CONDITIONS)} conditions, {setup['poses']} poses of "
               f"{T}x{S} views of {setup['size'][1]}x{setup['size'][0]} px; contrastThreshold "
               f"{CONTRAST_THRESHOLD}, edgeThreshold {EDGE_THRESHOLD:g}, LiFF {SLOPES['numSlopes']} slopes "
               f"in [{SLOPES['firstSlope']:g}, {SLOPES['lastSlope']:g}]; low contrast {CONTRAST}; "
+              f"histogram {args.equalize}; "
               f"{time.time() - start:.0f} s")
     text = header + "\n" + tables(rows) + "\n" + per_scene(rows) + "\n"
     print(text)

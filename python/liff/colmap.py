@@ -161,7 +161,7 @@ def _as_uint8_image(image: np.ndarray) -> np.ndarray:
     return np.clip(np.round(image * 255.0), 0, 255).astype(np.uint8)
 
 
-def prepare_light_field(lf: np.ndarray, gamma: float = 0.5, equalise: bool = True) -> np.ndarray:
+def prepare_light_field(lf: np.ndarray, gamma: float = 0.5, equalise=True) -> np.ndarray:
     """The paper's greyscale for SfM in 8 bits: :func:`liff.preprocess.prepare`
     (luminance, gamma, one histogram mapping for the whole light field, as the
     authors' code does it), rounded to uint8 so that cv2.SIFT can take the centre view.
@@ -173,8 +173,9 @@ def prepare_light_field(lf: np.ndarray, gamma: float = 0.5, equalise: bool = Tru
         BGR, turned grey by luminance 0.299 R + 0.587 G + 0.114 B.
     gamma : float
         Exponent applied to the [0, 1] intensities (the paper: 0.5).
-    equalise : bool
-        Histogram equalisation ("stretch", see :func:`liff.preprocess.equalize`).
+    equalise : bool or {"stretch", "cdf"}
+        Histogram step: True is "stretch" (the authors' code), "cdf" classic
+        equalisation, False none (see :func:`liff.preprocess.equalize`).
 
     Returns
     -------

@@ -263,7 +263,7 @@ void buildSlices(const LightField& lf, const std::vector<double>& slopes,
     const cv::Vec2d v = detail::interpolationVariance(lf.T, lf.S, slope);
     target = cv::Vec2d(std::max(target[0], v[0]), std::max(target[1], v[1]));
   }
-  auto build = [&](int k) {
+  auto build = [&](int k, bool rowParallel) {
     cv::Mat slice;
     {
       detail::StageTimer timer(detail::kFocalStack);
@@ -272,7 +272,7 @@ void buildSlices(const LightField& lf, const std::vector<double>& slopes,
     detail::StageTimer timer(detail::kScaleSpace);
     const cv::Vec2d variance = detail::interpolationVariance(lf.T, lf.S, slopes[k]);
     return std::make_shared<ScaleSpace>(detail::buildScaleSpace(
-        slice, layers, sigma, octaves, variance, target, detectionOnly));
+        slice, layers, sigma, octaves, variance, target, detectionOnly, rowParallel));
   };
   // Whole rounds of one slice per thread run in parallel (each slice serial inside);
   // the remainder is built one slice at a time with the parallelism inside it
@@ -281,9 +281,9 @@ void buildSlices(const LightField& lf, const std::vector<double>& slopes,
   const int n = int(which.size()), parallelCount = n - n % threads;
   std::vector<std::shared_ptr<ScaleSpace>> built(n);
   cv::parallel_for_(cv::Range(0, parallelCount), [&](const cv::Range& range) {
-    for (int j = range.start; j < range.end; ++j) built[j] = build(which[j]);
+    for (int j = range.start; j < range.end; ++j) built[j] = build(which[j], false);
   });
-  for (int j = parallelCount; j < n; ++j) built[j] = build(which[j]);
+  for (int j = parallelCount; j < n; ++j) built[j] = build(which[j], true);
   for (int j = 0; j < n; ++j) window[which[j]] = built[j];
 }
 

@@ -8,14 +8,16 @@ namespace liff {
 namespace detail {
 namespace {
 
-// Rows per parallel task of a blur; fixed, so results never depend on the thread count.
-constexpr int kBlurRows = 32;
+// Rows per parallel task of a blur. Each stripe also filters the kernel radius (up to
+// 12 rows at octave -1) above and below it horizontally, so stripes are kept tall.
+constexpr int kBlurRows = 64;
 
-// cv::GaussianBlur, split into row stripes run in parallel. OpenCV filters a
-// sub-matrix with the pixels of its parent beyond the stripe, so the result is
-// identical to one call on the whole image.
-void gaussianBlur(const cv::Mat& src, cv::Mat& dst, double sigmaX, double sigmaY) {
-  if (src.rows < 2 * kBlurRows) {
+// cv::GaussianBlur, split into row stripes run in parallel when `rowParallel`. OpenCV
+// filters a sub-matrix with the pixels of its parent beyond the stripe, so the result
+// is identical to one call on the whole image, whatever the split.
+void gaussianBlur(const cv::Mat& src, cv::Mat& dst, double sigmaX, double sigmaY,
+                  bool rowParallel) {
+  if (!rowParallel || src.rows < 2 * kBlurRows) {
     cv::GaussianBlur(src, dst, cv::Size(), sigmaX, sigmaY);
     return;
   }
@@ -38,7 +40,8 @@ int numOctaves(cv::Size viewSize) {
 }
 
 ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
-                           cv::Vec2d variance, cv::Vec2d targetVariance, bool detectionOnly) {
+                           cv::Vec2d variance, cv::Vec2d targetVariance, bool detectionOnly,
+                           bool rowParallel) {
   CV_Assert(slice.type() == CV_32F && layers >= 1 && octaves >= 1);
   ScaleSpace space;
   space.octaves = octaves;
@@ -57,7 +60,7 @@ ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int o
     blur[axis] = std::sqrt(std::max(sigma * sigma - present2, 0.01) + topUp);
   }
   cv::resize(slice, base, cv::Size(), upsample, upsample, cv::INTER_LINEAR);
-  gaussianBlur(base, space.gaussians[0], blur[0], blur[1]);
+  gaussianBlur(base, space.gaussians[0], blur[0], blur[1], rowParallel);
 
   // Incremental blurs: sigma_i^2 = (k^i sigma)^2 - (k^(i-1) sigma)^2.
   std::vector<double> increment(layers + 3);
@@ -77,7 +80,7 @@ ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int o
         const cv::Mat& src = space.gaussian(o - 1, layers);
         cv::resize(src, dst, cv::Size(src.cols / 2, src.rows / 2), 0, 0, cv::INTER_NEAREST);
       } else {
-        gaussianBlur(space.gaussian(o, i - 1), dst, increment[i], increment[i]);
+        gaussianBlur(space.gaussian(o, i - 1), dst, increment[i], increment[i], rowParallel);
       }
     }
     for (int i = 0; i < layers + 2; ++i)

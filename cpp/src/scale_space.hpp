@@ -44,9 +44,13 @@ struct ScaleSpace {
 ///
 /// With `detectionOnly`, the Gaussians no detected keypoint can use (layers 0,
 /// layers + 1 and layers + 2 of each octave) are released once the DoGs are made.
+///
+/// `rowParallel`: split each blur into row stripes run in parallel (for a slice built
+/// alone); false when slices are already built one per thread, where the stripes'
+/// extra rows would be wasted work. The result is the same either way.
 ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
                            cv::Vec2d variance = {}, cv::Vec2d targetVariance = {},
-                           bool detectionOnly = false);
+                           bool detectionOnly = false, bool rowParallel = true);
 
 /// Octave-image coordinate -> centre-view pixel coordinate, for octave index o
 /// (0-based). Octave pixel x sits at base pixel x * 2^o (decimation keeps even

@@ -61,6 +61,9 @@ def test_large_disk_lost_by_sift_is_found():
     found = liff.LiFF.create(contrastThreshold=0.02).detect(image)
     assert len(found) >= 1
     assert all(np.hypot(k.pt[0] - disk.x, k.pt[1] - disk.y) < 0.1 for k in found)
+    # The packed octave stays cv::SIFT's: octave byte, layer in [1, 3], sub-layer byte.
+    for k in found:
+        assert 0 <= k.octave >> 16 <= 255 and 1 <= (k.octave >> 8) & 255 <= 3
 
 
 def test_sizes_octaves_responses_equal_sift(both):

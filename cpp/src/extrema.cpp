@@ -119,8 +119,11 @@ bool refine(const ScaleSpace& space, int o, const DetectParams& params, int r, i
     const cv::Vec3i target(r + cvRound(xr), c + cvRound(xc), layer + cvRound(xi));
     const auto seen = visited.begin() + step + 1;  // the start and every move so far
     if (std::find(visited.begin(), seen, target) != seen) {
-      if (std::abs(xi) < 1.f && std::abs(xr) < 1.f && std::abs(xc) < 1.f) break;
-      return false;
+      if (!(std::abs(xi) < 1.f && std::abs(xr) < 1.f && std::abs(xc) < 1.f)) return false;
+      // The position keeps its offset (up to a sample); the scale offset is held to
+      // half a layer, the range cv::SIFT's octave packing (and the layer) can carry.
+      xi = std::min(0.5f, std::max(-0.5f, xi));
+      break;
     }
     visited[step + 1] = target;
     r = target[0];

@@ -164,3 +164,40 @@ def test_sfm_reconstructs_a_capture(capture_folder, tmp_path, capsys):
     assert main(["colmap", *paths, "--database", str(workspace / "database.db"),
                  "--image-dir", str(workspace / "images")]) == 1
     assert "fresh database" in capsys.readouterr().err
+
+
+def test_outputs_that_would_collide_are_refused(disk_npz, tmp_path, capsys):
+    """a/lf_0.5.npy and b/lf_0.5.npy (or lf_0.5 / lf_0.7 cut at the first dot) must not
+    overwrite each other's features."""
+    for folder in ("a", "b"):
+        (tmp_path / folder).mkdir()
+        with np.load(disk_npz) as data:
+            np.save(tmp_path / folder / "lf_0.5.npy", data["light_field"][:, :, :64, :64])
+    np.save(tmp_path / "a" / "lf_0.7.npy", np.load(tmp_path / "a" / "lf_0.5.npy"))
+    out = tmp_path / "out"
+    assert main(["detect", str(tmp_path / "a" / "lf_0.5.npy"), str(tmp_path / "a" / "lf_0.7.npy"),
+                 "--out", str(out)]) == 0
+    assert sorted(os.listdir(out)) == ["lf_0.5.npz", "lf_0.7.npz"]
+    assert main(["detect", str(tmp_path / "a" / "lf_0.5.npy"), str(tmp_path / "b" / "lf_0.5.npy"),
+                 "--out", str(tmp_path / "out2")]) == 1
+    assert "would both write" in capsys.readouterr().err
+
+
+def test_out_without_npz_ending_and_bad_plot_ending(disk_npz, tmp_path, capsys):
+    out = tmp_path / "feats"
+    assert main(["detect", disk_npz, "--out", str(out)]) == 0
+    assert os.path.exists(str(out) + ".npz") and f"-> {out}.npz" in capsys.readouterr().out
+    assert main(["detect", disk_npz, "--out", str(out)]) == 0  # the real file is seen
+    assert "skipped 1" in capsys.readouterr().out
+    assert main(["detect", disk_npz, "--out", str(tmp_path / "g.npz"), "--plot",
+                 str(tmp_path / "g.foo")]) == 1
+    assert "g.foo" in capsys.readouterr().err
+
+
+def test_damaged_feature_file_is_an_error_not_a_traceback(disk_npz, tmp_path, capsys):
+    good = tmp_path / "good.npz"
+    assert main(["detect", disk_npz, "--out", str(good)]) == 0
+    damaged = tmp_path / "damaged.npz"
+    damaged.write_bytes(good.read_bytes()[:300])
+    assert main(["match", str(damaged), str(good)]) == 1
+    assert "damaged.npz" in capsys.readouterr().err

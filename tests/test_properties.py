@@ -556,3 +556,15 @@ def test_slopes_for_ends_exactly_at_last_slope():
     d = liff.LiFF.create(firstSlope=0.0, lastSlope=1237.3908802499916, numSlopes=54)
     slopes = d.slopesFor(1, 2)
     assert slopes[0] == 0.0 and slopes[-1] == d.getLastSlope()
+
+
+@pytest.mark.parametrize("value", ["x", None, 0.5, 2])
+def test_root_sift_takes_only_bools(value):
+    with pytest.raises(TypeError, match="rootSift"):
+        liff.LiFF.create(rootSift=value)
+    with pytest.raises(TypeError, match="rootSift"):
+        liff.LiFF.create().setRootSift(value)
+
+
+def test_root_sift_takes_numpy_bools():
+    assert liff.LiFF.create(rootSift=np.bool_(True)).getRootSift() is True

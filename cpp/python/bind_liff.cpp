@@ -52,7 +52,12 @@ template <typename T>
 T number(const py::handle& value, const char* name) {
   const std::string what = std::string(name) + " = " + std::string(py::repr(value));
   if constexpr (std::is_same_v<T, bool>) {
-    return value.cast<bool>();
+    // Python or numpy bools only (pybind11 would raise RuntimeError for others, or
+    // take None and 0.5 as booleans).
+    const std::string type = py::str(py::type::of(value).attr("__name__"));
+    if (!PyBool_Check(value.ptr()) && type != "bool_" && type != "bool")
+      throw py::type_error(what + "; expected a bool");
+    return PyObject_IsTrue(value.ptr()) == 1;
   } else if constexpr (std::is_same_v<T, int>) {
     if (PyFloat_Check(value.ptr())) throw py::type_error(what + "; expected an integer");
     const py::object index = py::reinterpret_steal<py::object>(PyNumber_Index(value.ptr()));
@@ -100,14 +105,14 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
                       const py::object& contrastThreshold, const py::object& edgeThreshold,
                       const py::object& sigma, const py::object& firstSlope,
                       const py::object& lastSlope, const py::object& numSlopes,
-                      const py::object& descriptorType, bool rootSift) {
+                      const py::object& descriptorType, const py::object& rootSift) {
             return PyLiFF{LiFF::create(
                 number<int>(nfeatures, "nfeatures"), number<int>(nOctaveLayers, "nOctaveLayers"),
                 number<double>(contrastThreshold, "contrastThreshold"),
                 number<double>(edgeThreshold, "edgeThreshold"), number<double>(sigma, "sigma"),
                 number<double>(firstSlope, "firstSlope"), number<double>(lastSlope, "lastSlope"),
                 number<int>(numSlopes, "numSlopes"), number<int>(descriptorType, "descriptorType"),
-                rootSift)};
+                number<bool>(rootSift, "rootSift"))};
           }),
           "nfeatures"_a = 0, "nOctaveLayers"_a = 3, "contrastThreshold"_a = 0.04,
           "edgeThreshold"_a = 10.0, "sigma"_a = 1.6, "firstSlope"_a = -1.0, "lastSlope"_a = 1.0,

@@ -33,18 +33,32 @@ double memAvailable() {
   return -1;
 }
 
-// Room left under this process's cgroup memory limit, in bytes, or -1 if none.
+// The value of `key` in a cgroup memory.stat file, or 0.
+double statValue(const char* path, const std::string& key) {
+  std::ifstream in(path);
+  std::string name;
+  double value = 0;
+  while (in >> name >> value)
+    if (name == key) return value;
+  return 0;
+}
+
+// Room left under this process's cgroup memory limit, in bytes, or -1 if none. Usage
+// counts the page cache; its inactive file pages are reclaimable, so they count as room
+// (as docker and the kubelet do), or reading large files would look like running out.
 double cgroupRoom() {
   // cgroup v2 (unified) at the root of the container's view, then v1.
   const double v2Max = readNumber("/sys/fs/cgroup/memory.max");
   if (v2Max > 0) {
-    const double used = readNumber("/sys/fs/cgroup/memory.current");
+    const double used = readNumber("/sys/fs/cgroup/memory.current") -
+                        statValue("/sys/fs/cgroup/memory.stat", "inactive_file");
     return std::max(1.0, v2Max - std::max(0.0, used));
   }
   const double v1Max = readNumber("/sys/fs/cgroup/memory/memory.limit_in_bytes");
   // v1 reports "no limit" as a huge number (about 2^63 rounded to pages).
   if (v1Max > 0 && v1Max < 1e18) {
-    const double used = readNumber("/sys/fs/cgroup/memory/memory.usage_in_bytes");
+    const double used = readNumber("/sys/fs/cgroup/memory/memory.usage_in_bytes") -
+                        statValue("/sys/fs/cgroup/memory/memory.stat", "total_inactive_file");
     return std::max(1.0, v1Max - std::max(0.0, used));
   }
   return -1;

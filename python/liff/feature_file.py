@@ -85,18 +85,22 @@ def load_features(path: PathLike) -> Features:
     path = os.fspath(path)
     try:
         data = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as error:
+    except Exception as error:  # numpy/zipfile raise many kinds on a damaged file
         raise ValueError(f"{path}: cannot read ({error}); expected a liff feature file (.npz)") from None
     with data:
         missing = [k for k in ("keypoints", "slopes", "descriptors") if k not in data.files]
         if missing:
             raise ValueError(f"{path}: no {', '.join(missing)} array; expected a liff feature "
                              "file written by `liff detect`")
-        rows, slopes, descriptors = data["keypoints"], data["slopes"], data["descriptors"]
-        view = data["centre_view"] if "centre_view" in data.files else None
-        meta = json.loads(str(data["meta"])) if "meta" in data.files else {}
-    n = len(rows)
-    if rows.ndim != 2 or rows.shape[1] != 6 or slopes.shape != (n,) or descriptors.shape != (n, 128):
+        try:  # members are read (and parsed) only now
+            rows, slopes, descriptors = data["keypoints"], data["slopes"], data["descriptors"]
+            view = data["centre_view"] if "centre_view" in data.files else None
+            meta = json.loads(str(data["meta"])) if "meta" in data.files else {}
+        except Exception as error:
+            raise ValueError(f"{path}: damaged feature file ({type(error).__name__}: {error}); "
+                             "expected one written by `liff detect`") from None
+    n = len(rows) if getattr(rows, "ndim", 0) >= 1 else -1
+    if n < 0 or rows.ndim != 2 or rows.shape[1] != 6 or slopes.shape != (n,) or descriptors.shape != (n, 128):
         raise ValueError(f"{path}: keypoints {rows.shape}, slopes {slopes.shape}, descriptors "
                          f"{descriptors.shape}; expected (N, 6), (N,) and (N, 128)")
     keypoints = tuple(

@@ -86,7 +86,9 @@ def load_light_field(path: str, options: dict, preprocess: bool) -> np.ndarray:
 def output_name(path: str, suffix: str) -> str:
     """``scene.png`` -> ``scene<suffix>``; a folder ``a/scene/`` -> ``scene<suffix>``."""
     base = os.path.basename(os.path.normpath(path))
-    stem = base.split(".")[0] if not os.path.isdir(path) else base
+    stem = base if os.path.isdir(path) else os.path.splitext(base)[0]
+    if stem.endswith(".eslf"):  # scene.eslf.png -> scene
+        stem = stem[:-len(".eslf")]
     return (stem or "light_field") + suffix
 
 

@@ -5,10 +5,9 @@ from __future__ import annotations
 import argparse
 import os
 
-import cv2
-
 from .. import __version__
 from ..feature_file import Features, centre_view, save_features
+from ..io._shared import write_image
 from ..plot import draw_keypoints_by_slope
 from . import common
 
@@ -39,7 +38,8 @@ def destination(given, path: str, suffix: str, many: bool) -> str:
         return common.output_name(path, suffix)
     if many or os.path.isdir(given) or given.endswith(os.sep):
         return os.path.join(given, common.output_name(path, suffix))
-    return given
+    # numpy appends .npz to a name without it; say (and check) the real file name
+    return given if given.endswith(suffix) else given + suffix
 
 
 def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
@@ -54,8 +54,7 @@ def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
     save_features(out, Features(tuple(keypoints), descriptors, view, meta))
     if plot:
         slope_range = (parameters["firstSlope"], parameters["lastSlope"])
-        if not cv2.imwrite(plot, draw_keypoints_by_slope(view, keypoints, slope_range)):
-            raise OSError(f"could not write the picture {plot}")
+        write_image(plot, draw_keypoints_by_slope(view, keypoints, slope_range))
     return len(keypoints)
 
 
@@ -65,10 +64,15 @@ def run(args: argparse.Namespace) -> int:
         if many and folder and os.path.exists(folder) and not os.path.isdir(folder):
             raise ValueError(f"{folder}: exists and is not a folder; expected a folder for "
                              f"{len(args.paths)} inputs")
-    jobs, skipped = [], 0
+    jobs, skipped, seen = [], 0, {}
     for path in args.paths:
         out = destination(args.out, path, ".npz", many)
-        plot = destination(args.plot, path, ".png", many) if args.plot else None
+        plot = (destination(args.plot, path, ".png", many) if many or os.path.isdir(args.plot)
+                else args.plot) if args.plot else None
+        if out in seen:
+            raise ValueError(f"{path} and {seen[out]} would both write {out}; expected inputs "
+                             "with distinct names (or one --out per run)")
+        seen[out] = path
         if not args.overwrite and os.path.exists(out) and (plot is None or os.path.exists(plot)):
             skipped += 1
             continue

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import argparse
 
-import cv2
 import numpy as np
 
 from ..feature_file import Features, features_from_light_field, load_features
+from ..io._shared import write_image
 from ..matching import draw_inliers, ratio_matches, verify
 from ..plot import to_display
 from . import common
@@ -37,7 +37,7 @@ def is_feature_file(path: str) -> bool:
     try:
         with np.load(path, allow_pickle=False) as data:
             return "descriptors" in data.files and "keypoints" in data.files
-    except (OSError, ValueError):
+    except Exception:  # not a readable zip: not a feature file (read_light_field will say why)
         return False
 
 
@@ -61,6 +61,5 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError("--plot needs the centre views; the feature files hold none")
         picture = draw_inliers(to_display(fa.centre_view), fa.keypoints,
                                to_display(fb.centre_view), fb.keypoints, result)
-        if not cv2.imwrite(args.plot, picture):
-            raise OSError(f"{args.plot}: could not write the picture")
+        write_image(args.plot, picture)
     return 0

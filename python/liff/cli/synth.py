@@ -49,6 +49,8 @@ def render(args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     from .. import io
 
+    if args.format == "npz" and not args.out.endswith(".npz"):
+        args.out += ".npz"  # numpy would append it anyway
     if os.path.exists(args.out) and not args.overwrite:
         raise ValueError(f"{args.out}: exists; expected a new path (or --overwrite)")
     lf, truth = render(args)

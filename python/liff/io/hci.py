@@ -82,7 +82,7 @@ def read_hci(folder: PathLike) -> HciScene:
         if "num_cams_x" in ext and "num_cams_y" in ext:
             S = _number(ext["num_cams_x"], int, "extrinsics num_cams_x", cfg_path)
             T = _number(ext["num_cams_y"], int, "extrinsics num_cams_y", cfg_path)
-            # A positive grid of at most 999 views (NNN in the names): checked before
+            # A positive grid of at most 1000 views (NNN in the names): checked before
             # the missing views are listed, so a huge grid costs no memory.
             if T < 1 or S < 1 or T * S > MAX_VIEWS:
                 raise ValueError(f"{cfg_path}: grid num_cams_y x num_cams_x = {T}x{S}; expected "

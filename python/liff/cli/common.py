@@ -107,7 +107,9 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
     def report(i: int, error: BaseException) -> None:
         nonlocal failures
         failures += 1
-        message = f"liff {command}: {label(jobs[i])}: {error}"
+        name, text = label(jobs[i]), str(error)
+        # readers' messages already start with the path
+        message = f"liff {command}: " + (text if text.startswith(name) else f"{name}: {text}")
         (progress.write(message, file=sys.stderr) if progress else print(message, file=sys.stderr))
 
     if workers <= 1 or len(jobs) <= 1:

@@ -201,3 +201,8 @@ def test_damaged_feature_file_is_an_error_not_a_traceback(disk_npz, tmp_path, ca
     damaged.write_bytes(good.read_bytes()[:300])
     assert main(["match", str(damaged), str(good)]) == 1
     assert "damaged.npz" in capsys.readouterr().err
+
+
+def test_sfm_needs_two_poses(disk_npz, tmp_path, capsys):
+    assert main(["sfm", disk_npz, "--workspace", str(tmp_path / "ws")]) == 1
+    assert "at least 2" in capsys.readouterr().err

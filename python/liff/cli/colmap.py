@@ -10,6 +10,7 @@ import shutil
 import cv2
 import numpy as np
 
+from .._detector import _keypoints_to_rows, _rows_to_keypoints
 from ..feature_file import centre_view, load_features
 from . import common
 from .match import is_feature_file
@@ -70,9 +71,7 @@ def features_for_colmap(path: str, options: dict, preprocess: bool, parameters: 
     if view.dtype != np.uint8:
         scale = 65535.0 if view.dtype == np.uint16 else 1.0
         view = np.clip(np.round(view / scale * 255), 0, 255).astype(np.uint8)
-    rows = np.array([(k.pt[0], k.pt[1], k.size, k.angle, k.response, k.octave, k.class_id)
-                     for k in keypoints], np.float64).reshape(-1, 7)
-    return view, rows, descriptors
+    return view, _keypoints_to_rows(keypoints), descriptors
 
 
 def write(args: argparse.Namespace, database: str, image_dir: str) -> int:
@@ -97,9 +96,7 @@ def write(args: argparse.Namespace, database: str, image_dir: str) -> int:
         if result is None:
             continue
         view, rows, descriptors = result
-        keypoints = tuple(cv2.KeyPoint(x, y, size, angle, response, int(octave), int(class_id))
-                          for x, y, size, angle, response, octave, class_id in rows.tolist())
-        images.append(colmap.FeatureImage(name, view, keypoints, descriptors))
+        images.append(colmap.FeatureImage(name, view, _rows_to_keypoints(rows), descriptors))
     if not images:
         raise ValueError("no input could be read; nothing written")
     os.makedirs(os.path.dirname(os.path.abspath(database)), exist_ok=True)
@@ -114,7 +111,14 @@ def run_colmap(args: argparse.Namespace) -> int:
 
 
 def run_sfm(args: argparse.Namespace) -> int:
+    import pycolmap
+
     from .. import colmap
+
+    if len(args.paths) < 2:
+        raise ValueError(f"{len(args.paths)} input; expected light fields of at least 2 camera "
+                         "poses for structure from motion")
+    pycolmap.logging.minloglevel = 2  # COLMAP's INFO lines would drown the summary
 
     database = os.path.join(args.workspace, "database.db")
     image_dir = os.path.join(args.workspace, "images")

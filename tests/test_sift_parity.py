@@ -69,7 +69,7 @@ def test_large_disk_lost_by_sift_is_found():
 def test_sizes_octaves_responses_equal_sift(both):
     kps, _, skps, _ = both
     pairs = pair_up(kps, skps)
-    assert len(pairs) >= 0.9 * len(kps)  # observed 221 of 233 (angles within 0.01 deg)
+    assert len(pairs) >= 0.9 * len(kps)  # observed 225 of 243 (all of SIFT's 225; angles within 0.01 deg)
     for i, j in pairs:
         k, s = kps[i], skps[j]
         assert k.size == pytest.approx(s.size, rel=1e-4)

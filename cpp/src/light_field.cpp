@@ -111,12 +111,6 @@ double conversionBytes(const cv::Mat& input, const LightField& lf) {
   return converted + (copied ? samples * double(input.elemSize()) : 0);
 }
 
-LightField toGreyLightField(const cv::Mat& input) {
-  LightField lf = checkLightField(input);
-  convertLightField(input, lf);
-  return lf;
-}
-
 void convertLightField(const cv::Mat& input, LightField& lf) {
   const int dims = input.dims, depth = input.depth(), channels = input.channels();
   const bool hasAlpha = channels == 2 || channels == 4;

@@ -23,16 +23,14 @@ struct LightField {
 };
 
 /// Validates a stacked light field Mat (4-D {T, S, V, U} or 2-D {V, U}; 1 (grey),
-/// 2 (grey + alpha), 3 (BGR) or 4 (BGRA) channels; 8U, 16U, 32F or 64F) and converts
-/// it to grey float, with the alpha channel (scaled like the values) as weights.
-/// Alpha that is 1 everywhere is dropped (same result, less work).
-/// Throws cv::Exception (StsBadArg / StsBadSize) naming what was expected.
-/// Never modifies the input; a continuous grey CV_32F input is used without copying.
-LightField toGreyLightField(const cv::Mat& input);
-
-/// The two halves of toGreyLightField: validation (sizes filled in, no data yet)...
+/// 2 (grey + alpha), 3 (BGR) or 4 (BGRA) channels; 8U, 16U, 32F or 64F) and fills in
+/// the sizes, no data yet; throws cv::Exception (StsBadArg / StsBadSize) naming what
+/// was expected. Kept apart from the conversion so memory can be checked in between.
 LightField checkLightField(const cv::Mat& input);
-/// ...and conversion of a checked input into lf.views / lf.weights.
+/// Converts a checked input to grey float in lf.views, with the alpha channel (scaled
+/// like the values) as lf.weights; alpha that is 1 everywhere is dropped (same result,
+/// less work). Never modifies the input; a continuous grey CV_32F input is used
+/// without copying. Throws for NaN / infinite values or negative alpha.
 void convertLightField(const cv::Mat& input, LightField& lf);
 /// Bytes convertLightField will allocate for a checked input (0 when it can use the
 /// input's data as it is).

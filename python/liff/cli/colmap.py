@@ -12,6 +12,7 @@ import numpy as np
 
 from .._detector import _keypoints_to_rows, _rows_to_keypoints
 from ..feature_file import centre_view, load_features
+from ..plot import to_display
 from . import common
 from .match import is_feature_file
 
@@ -65,12 +66,7 @@ def features_for_colmap(path: str, options: dict, preprocess: bool, parameters: 
             light_field = prepare_light_field(light_field)
         keypoints, descriptors = common.make_detector(parameters).detectAndCompute(light_field, None)
         view = centre_view(light_field)
-    view = np.asarray(view)
-    if view.ndim == 3:
-        view = cv2.cvtColor(view, cv2.COLOR_BGR2GRAY)
-    if view.dtype != np.uint8:
-        scale = 65535.0 if view.dtype == np.uint16 else 1.0
-        view = np.clip(np.round(view / scale * 255), 0, 255).astype(np.uint8)
+    view = cv2.cvtColor(to_display(view), cv2.COLOR_BGR2GRAY)  # grey uint8, as COLMAP wants
     return view, _keypoints_to_rows(keypoints), descriptors
 
 

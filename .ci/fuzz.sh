@@ -10,6 +10,7 @@
 #
 # Needs .venv (made by .ci/setup.sh); installs atheris into it if missing.
 #   FUZZ_SECONDS=600 bash .ci/fuzz.sh     fuzz longer
+#   FUZZ_SEED=7 bash .ci/fuzz.sh          another random seed (default 1, so CI runs repeat)
 #   FUZZ_READERS="pfm" bash .ci/fuzz.sh   only these readers
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -32,7 +33,7 @@ for name in "${names[@]}"; do
   # (the target also caps its address space, see limit_memory).
   rc=0
   (cd "$out" && TMPDIR="$out/tmp" "$py" "$OLDPWD/fuzz/fuzz_readers.py" "$name" \
-     -max_total_time="$share" -timeout=30 -rss_limit_mb=3072 -print_final_stats=1 \
+     -max_total_time="$share" -seed="${FUZZ_SEED:-1}" -timeout=30 -rss_limit_mb=3072 -print_final_stats=1 \
      "corpus/$name" "$OLDPWD/fuzz/corpus/$name") >"$out/$name.log" 2>&1 || rc=$?
   grep -vE '^#[0-9]+[[:space:]]+(NEW|REDUCE|pulse)|^libpng (error|warning)|^(INFO|WARNING): |^"|^######' \
     "$out/$name.log" | grep -v '^$' || true

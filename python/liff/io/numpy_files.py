@@ -76,8 +76,8 @@ def read_numpy(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
                              "expected a .npz written by numpy") from None
         light_field = check_light_field(array, f"{path}[{key!r}]")
     if disparity is not None:
-        if disparity.shape != light_field.shape[2:4]:
-            raise ValueError(f"{path}[{DISPARITY_KEY!r}]: shape {disparity.shape}; expected the "
-                             f"views' (V, U) = {light_field.shape[2:4]}")
+        if not isinstance(disparity, np.ndarray) or disparity.shape != light_field.shape[2:4]:
+            raise ValueError(f"{path}[{DISPARITY_KEY!r}]: shape {getattr(disparity, 'shape', None)}; "
+                             f"expected an array of the views' (V, U) = {light_field.shape[2:4]}")
         disparity = disparity.astype(np.float32)
     return LightFieldFile(light_field, "npz", {"key": key, "keys": keys}, disparity, path)

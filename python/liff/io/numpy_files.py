@@ -78,6 +78,6 @@ def read_numpy(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
     if disparity is not None:
         if not isinstance(disparity, np.ndarray) or disparity.shape != light_field.shape[2:4]:
             raise ValueError(f"{path}[{DISPARITY_KEY!r}]: shape {getattr(disparity, 'shape', None)}; "
-                             f"expected an array of the views' (V, U) = {light_field.shape[2:4]}")
+                             f"expected the views' (V, U) = {light_field.shape[2:4]}")
         disparity = disparity.astype(np.float32)
     return LightFieldFile(light_field, "npz", {"key": key, "keys": keys}, disparity, path)

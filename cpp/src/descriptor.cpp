@@ -1,6 +1,10 @@
 #include "descriptor.hpp"
 
+#include "hot_loop.hpp"
+
 #include <opencv2/core/hal/hal.hpp>
+
+#include <climits>
 
 #include <cfloat>
 #include <cmath>
@@ -59,9 +63,78 @@ float orientationHistogram(const cv::Mat& image, cv::Point centre, int radius, f
   return highest;
 }
 
+namespace {
+
+// Columns j of row offset i whose rotated-grid position can fall inside the open cell
+// range (-1, d) on both axes:  -1 < j * a + b < d  for (a, b) = (sinT, i cosT + d/2 - 1/2)
+// and (cosT, -i sinT + d/2 - 1/2). Solved in double and widened by one column, so the
+// exact float test that follows still decides every sample it keeps; this only skips
+// the corners of the bounding square, about half of it, that the test would reject.
+void columnRange(int i, float cosT, float sinT, int d, int& jBegin, int& jEnd) {
+  double lo = -DBL_MAX, hi = DBL_MAX;
+  auto bound = [&](double a, double b) {  // -1 < j a + b < d
+    if (std::abs(a) < 1e-12) {
+      if (!(b > -2 && b < d + 1)) hi = -DBL_MAX;  // never inside (widened as below)
+      return;
+    }
+    const double j0 = (-1 - b) / a, j1 = (d - b) / a;
+    lo = std::max(lo, std::min(j0, j1));
+    hi = std::min(hi, std::max(j0, j1));
+  };
+  const double half = d / 2.0 - 0.5;
+  bound(sinT, i * double(cosT) + half);
+  bound(cosT, -i * double(sinT) + half);
+  if (!(lo <= hi)) {
+    jEnd = jBegin - 1;
+    return;
+  }
+  jBegin = std::max(jBegin, int(std::max(double(INT_MIN / 2), std::floor(lo) - 1)));
+  jEnd = std::min(jEnd, int(std::min(double(INT_MAX / 2), std::ceil(hi) + 1)));
+}
+
+// Trilinear weights of each sample's magnitude over its 2 x 2 x 2 neighbouring
+// (row, column, orientation) bins, and the index of the first of them in the padded
+// histogram. Branch-free so that it vectorises; the scatter that follows is serial.
+// floor is taken as int(v) - (v < int(v)), exact for the small finite values here.
+LIFF_HOT_LOOP void trilinearWeights(const float* R, const float* C, const float* O,
+                                    const float* magnitude, const float* gaussian, int count,
+                                    float angleDegrees, int* index, float* weights) {
+  const int d = kDescriptorWidth, n = kDescriptorBins;
+  const float binsPerDegree = n / 360.f;
+  for (int k = 0; k < count; ++k) {
+    float rBin = R[k], cBin = C[k];
+    float oBin = (O[k] - angleDegrees) * binsPerDegree;
+    const float value = magnitude[k] * gaussian[k];
+    int r0 = int(rBin), c0 = int(cBin), o0 = int(oBin);
+    r0 -= int(rBin < float(r0));
+    c0 -= int(cBin < float(c0));
+    o0 -= int(oBin < float(o0));
+    rBin -= float(r0);
+    cBin -= float(c0);
+    oBin -= float(o0);
+    o0 &= n - 1;  // o0 mod n (n is a power of two)
+    const float vR1 = value * rBin, vR0 = value - vR1;
+    const float vRC11 = vR1 * cBin, vRC10 = vR1 - vRC11;
+    const float vRC01 = vR0 * cBin, vRC00 = vR0 - vRC01;
+    float* w = weights + size_t(k) * 8;
+    w[1] = vRC00 * oBin;
+    w[0] = vRC00 - w[1];
+    w[3] = vRC01 * oBin;
+    w[2] = vRC01 - w[3];
+    w[5] = vRC10 * oBin;
+    w[4] = vRC10 - w[5];
+    w[7] = vRC11 * oBin;
+    w[6] = vRC11 - w[7];
+    index[k] = ((r0 + 1) * (d + 2) + c0 + 1) * (n + 2) + o0;
+  }
+}
+
+}  // namespace
+
 void rawDescriptor(const cv::Mat& image, cv::Point2f point, float angleDegrees, float scale,
                    float* raw) {
   const int d = kDescriptorWidth, n = kDescriptorBins;
+  static_assert((kDescriptorBins & (kDescriptorBins - 1)) == 0, "bins: a power of two");
   const cv::Point centre(cvRound(point.x), cvRound(point.y));
   const float angle = angleDegrees * float(CV_PI / 180.0);
   const float expScale = -1.f / (d * d * 0.5f);
@@ -88,7 +161,9 @@ void rawDescriptor(const cv::Mat& image, cv::Point2f point, float angleDegrees, 
     const float* row = image.ptr<float>(y);
     const float* up = image.ptr<float>(y - 1);
     const float* down = image.ptr<float>(y + 1);
-    for (int j = jBegin; j <= jEnd; ++j) {
+    int jFirst = jBegin, jLast = jEnd;
+    columnRange(i, cosT, sinT, d, jFirst, jLast);
+    for (int j = jFirst; j <= jLast; ++j) {
       const int x = centre.x + j;
       // Sample offset in the keypoint's rotated frame, in cell units.
       const float cRot = j * cosT - i * sinT, rRot = j * sinT + i * cosT;
@@ -106,36 +181,26 @@ void rawDescriptor(const cv::Mat& image, cv::Point2f point, float angleDegrees, 
   cv::hal::magnitude32f(X, Y, X, count);
   cv::hal::exp32f(W, W, count);
 
-  // Histogram with a guard cell on each side of the grid and two wrap bins.
-  std::vector<float> hist(size_t(d + 2) * (d + 2) * (n + 2), 0.f);
-  const float angleDeg = angleDegrees, binsPerDegree = n / 360.f;
+  // Weights first (vectorised; reusing the X and Y buffers, whose values are no
+  // longer needed once in the weights), then the serial scatter into a histogram
+  // with a guard cell on each side of the grid and two wrap bins.
+  cv::AutoBuffer<float> weightBuffer(size_t(count) * 8 + 1);
+  cv::AutoBuffer<int> indexBuffer(size_t(count) + 1);
+  float* weights = weightBuffer.data();
+  int* index = indexBuffer.data();
+  trilinearWeights(R, C, O, X, W, count, angleDegrees, index, weights);
+  float hist[(kDescriptorWidth + 2) * (kDescriptorWidth + 2) * (kDescriptorBins + 2)] = {};
   for (int k = 0; k < count; ++k) {
-    float rBin = R[k], cBin = C[k];
-    float oBin = (O[k] - angleDeg) * binsPerDegree;
-    const float magnitude = X[k] * W[k];
-    // Trilinear interpolation into (row, column, orientation) bins.
-    const int r0 = cvFloor(rBin), c0 = cvFloor(cBin);
-    int o0 = cvFloor(oBin);
-    rBin -= r0;
-    cBin -= c0;
-    oBin -= o0;
-    o0 = ((o0 % n) + n) % n;
-    const float vR1 = magnitude * rBin, vR0 = magnitude - vR1;
-    const float vRC11 = vR1 * cBin, vRC10 = vR1 - vRC11;
-    const float vRC01 = vR0 * cBin, vRC00 = vR0 - vRC01;
-    const float vRCO111 = vRC11 * oBin, vRCO110 = vRC11 - vRCO111;
-    const float vRCO101 = vRC10 * oBin, vRCO100 = vRC10 - vRCO101;
-    const float vRCO011 = vRC01 * oBin, vRCO010 = vRC01 - vRCO011;
-    const float vRCO001 = vRC00 * oBin, vRCO000 = vRC00 - vRCO001;
-    const size_t idx = (size_t(r0 + 1) * (d + 2) + c0 + 1) * (n + 2) + o0;
-    hist[idx] += vRCO000;
-    hist[idx + 1] += vRCO001;
-    hist[idx + (n + 2)] += vRCO010;
-    hist[idx + (n + 3)] += vRCO011;
-    hist[idx + (d + 2) * (n + 2)] += vRCO100;
-    hist[idx + (d + 2) * (n + 2) + 1] += vRCO101;
-    hist[idx + (d + 3) * (n + 2)] += vRCO110;
-    hist[idx + (d + 3) * (n + 2) + 1] += vRCO111;
+    float* h = hist + index[k];
+    const float* w = weights + size_t(k) * 8;
+    h[0] += w[0];
+    h[1] += w[1];
+    h[n + 2] += w[2];
+    h[n + 3] += w[3];
+    h[(d + 2) * (n + 2)] += w[4];
+    h[(d + 2) * (n + 2) + 1] += w[5];
+    h[(d + 3) * (n + 2)] += w[6];
+    h[(d + 3) * (n + 2) + 1] += w[7];
   }
   // Fold the wrap bins and drop the guard cells.
   for (int i = 0; i < d; ++i)

@@ -11,6 +11,8 @@
 #include <cfloat>
 #include <climits>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 
 namespace liff {
 namespace detail {
@@ -37,15 +39,19 @@ inline bool beats3x3(float v, bool isMax, const cv::Mat& dog, int r, int c, bool
   return true;
 }
 
-// Marks the columns of a DoG row that pass the cheapest tests: |v| above the
-// pre-threshold and >= (<= for minima) its two horizontal neighbours. Branch-free,
-// so it vectorises.
-LIFF_HOT_LOOP void markCandidates(const float* row, int begin, int end, float threshold,
-                                  uchar* candidate) {
+// Marks the columns of DoG row `row` that pass the cheapest tests: |v| above the
+// pre-threshold and >= (<= for minima) its four horizontal and vertical neighbours
+// (`up`, `down`: the rows above and below). Branch-free, so it vectorises; the full
+// test repeats these comparisons, so the pre-test only saves work.
+LIFF_HOT_LOOP void markCandidates(const float* up, const float* row, const float* down,
+                                  int begin, int end, float threshold, uchar* candidate) {
   for (int c = begin; c < end; ++c) {
-    const float v = row[c], left = row[c - 1], right = row[c + 1];
-    candidate[c] = uchar((v > threshold) & (v >= left) & (v >= right)) |
-                   uchar((v < -threshold) & (v <= left) & (v <= right));
+    const float v = row[c], left = row[c - 1], right = row[c + 1], above = up[c],
+                below = down[c];
+    candidate[c] = uchar((v > threshold) & (v >= left) & (v >= right) & (v >= above) &
+                         (v >= below)) |
+                   uchar((v < -threshold) & (v <= left) & (v <= right) & (v <= above) &
+                         (v <= below));
   }
 }
 
@@ -253,13 +259,20 @@ std::vector<cv::KeyPoint> findKeypoints(const SliceNeighbourhood& slices,
     }
   };
   const int cEnd = cols - kImageBorder;
-  std::vector<uchar> candidate(cols, 0);
+  // Padded to whole 8-byte words, which are skipped at once when all zero (most are).
+  std::vector<uchar> candidate(size_t(cols + 8), 0);
   for (r = task.rowBegin; r < task.rowEnd; ++r) {
     row = dog.ptr<float>(r);
     // Cheapest tests first; only columns that pass get the full test.
-    markCandidates(row, kImageBorder, cEnd, preThreshold, candidate.data());
-    for (int c = kImageBorder; c < cEnd; ++c)
-      if (candidate[c]) searchColumn(c);
+    markCandidates(dog.ptr<float>(r - 1), row, dog.ptr<float>(r + 1), kImageBorder, cEnd,
+                   preThreshold, candidate.data());
+    for (int c0 = kImageBorder; c0 < cEnd; c0 += 8) {
+      uint64_t word;
+      std::memcpy(&word, candidate.data() + c0, sizeof(word));
+      if (word == 0) continue;
+      for (int c = c0; c < std::min(cEnd, c0 + 8); ++c)
+        if (candidate[c]) searchColumn(c);
+    }
   }
   return keypoints;
 }

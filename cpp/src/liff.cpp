@@ -253,10 +253,12 @@ int nearestSlice(const std::vector<double>& slopes, double slope) {
   return int(std::min<long>(long(slopes.size()) - 1, std::max<long>(0, index)));
 }
 
-// Builds the scale spaces of the listed slices.
+// Builds the scale spaces of the listed slices, reusing the pool's memory when given
+// one (detection passes; `detectionOnly` pyramids).
 void buildSlices(const LightField& lf, const std::vector<double>& slopes,
                  const std::vector<int>& which, int layers, double sigma, int octaves,
-                 bool detectionOnly, std::map<int, std::shared_ptr<ScaleSpace>>& window) {
+                 bool detectionOnly, std::map<int, std::shared_ptr<ScaleSpace>>& window,
+                 detail::ScaleSpacePool* pool = nullptr) {
   // Every slice is topped up to the largest interpolation blur of the grid.
   cv::Vec2d target(0, 0);
   for (double slope : slopes) {
@@ -264,15 +266,19 @@ void buildSlices(const LightField& lf, const std::vector<double>& slopes,
     target = cv::Vec2d(std::max(target[0], v[0]), std::max(target[1], v[1]));
   }
   auto build = [&](int k, bool rowParallel) {
-    cv::Mat slice;
+    std::unique_ptr<detail::BuildScratch> scratch =
+        pool ? pool->takeScratch() : std::make_unique<detail::BuildScratch>();
+    std::shared_ptr<ScaleSpace> space = pool ? pool->takeSpace() : std::make_shared<ScaleSpace>();
     {
       detail::StageTimer timer(detail::kFocalStack);
-      detail::renderFocalSlice(lf, slopes[k], slice);
+      detail::renderFocalSlice(lf, slopes[k], scratch->slice);
     }
     detail::StageTimer timer(detail::kScaleSpace);
     const cv::Vec2d variance = detail::interpolationVariance(lf.T, lf.S, slopes[k]);
-    return std::make_shared<ScaleSpace>(detail::buildScaleSpace(
-        slice, layers, sigma, octaves, variance, target, detectionOnly, rowParallel));
+    detail::buildScaleSpace(scratch->slice, layers, sigma, octaves, variance, target,
+                            detectionOnly, rowParallel, *space, pool ? scratch.get() : nullptr);
+    if (pool) pool->giveScratch(std::move(scratch));
+    return space;
   };
   // Whole rounds of one slice per thread run in parallel (each slice serial inside);
   // the remainder is built one slice at a time with the parallelism inside it
@@ -420,13 +426,14 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   // and searched in parallel, and results are concatenated in slice order.
   keypoints.clear();
   std::vector<cv::Mat> descriptorBlocks;
+  detail::ScaleSpacePool pool;
   const detail::DetectParams params{nOctaveLayers_, contrastThreshold_, edgeThreshold_, sigma_};
   for (int k0 = 0; octaves >= 1 && k0 < M; k0 += batch) {
     const int k1 = std::min(M, k0 + batch);  // search slices [k0, k1)
     std::vector<int> missing;
     for (int k = std::max(0, k0 - 1); k < std::min(M, k1 + 1); ++k)
       if (!window.count(k)) missing.push_back(k);
-    buildSlices(lf, slopes, missing, nOctaveLayers_, sigma_, octaves, true, window);
+    buildSlices(lf, slopes, missing, nOctaveLayers_, sigma_, octaves, true, window, &pool);
 
     // Search the batch as fixed row-stripe tasks over all its slices, octaves and
     // layers, so both cores stay busy; results are gathered in task order.
@@ -466,9 +473,16 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
       describe(batchKeypoints, sliceOf, window, block);
       descriptorBlocks.push_back(block);
     }
-    // Keep only slice k1 - 1, the lower neighbour of the next batch.
-    for (auto it = window.begin(); it != window.end();)
-      it = it->first < k1 - 1 ? window.erase(it) : std::next(it);
+    // Keep only slice k1 - 1, the lower neighbour of the next batch; the others'
+    // memory goes to the next slices.
+    for (auto it = window.begin(); it != window.end();) {
+      if (it->first >= k1 - 1) {
+        ++it;
+        continue;
+      }
+      pool.giveSpace(std::move(it->second));
+      it = window.erase(it);
+    }
   }
   window.clear();
 

@@ -39,11 +39,22 @@ int numOctaves(cv::Size viewSize) {
   return std::max(0, cvRound(std::log2(baseMin) - 2) - kFirstOctave);
 }
 
-ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
-                           cv::Vec2d variance, cv::Vec2d targetVariance, bool detectionOnly,
-                           bool rowParallel) {
+namespace {
+
+// Header over the start of `buffer` (which must hold at least `size` floats), or a
+// new image when there is no buffer.
+cv::Mat imageIn(cv::Mat* buffer, cv::Size size) {
+  if (!buffer) return cv::Mat(size, CV_32F);
+  CV_Assert(buffer->isContinuous() && buffer->total() >= size.area());
+  return cv::Mat(size, CV_32F, buffer->data);
+}
+
+}  // namespace
+
+void buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
+                     cv::Vec2d variance, cv::Vec2d targetVariance, bool detectionOnly,
+                     bool rowParallel, ScaleSpace& space, BuildScratch* scratch) {
   CV_Assert(slice.type() == CV_32F && layers >= 1 && octaves >= 1);
-  ScaleSpace space;
   space.octaves = octaves;
   space.layers = layers;
   space.gaussians.resize(size_t(octaves) * (layers + 3));
@@ -51,7 +62,8 @@ ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int o
 
   // Base: upsample 2x (kFirstOctave = -1), then blur from the assumed 2 * 0.5 (plus
   // the interpolation blur every slice is topped up to) to sigma.
-  cv::Mat base;
+  cv::Mat localBase;
+  cv::Mat& base = scratch ? scratch->base : localBase;
   const double upsample = std::ldexp(1.0, -kFirstOctave), up2 = upsample * upsample;
   double blur[2];
   for (int axis = 0; axis < 2; ++axis) {
@@ -60,7 +72,19 @@ ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int o
     blur[axis] = std::sqrt(std::max(sigma * sigma - present2, 0.01) + topUp);
   }
   cv::resize(slice, base, cv::Size(), upsample, upsample, cv::INTER_LINEAR);
-  gaussianBlur(base, space.gaussians[0], blur[0], blur[1], rowParallel);
+  const cv::Size baseSize = base.size();
+
+  // Layers not kept in a detection-only pyramid live in the scratch buffers.
+  const bool transient = detectionOnly && scratch;
+  if (transient)
+    for (cv::Mat& buffer : scratch->transient) buffer.create(baseSize, CV_32F);
+  auto slot = [&](int i) -> cv::Mat* {
+    if (!transient) return nullptr;
+    if (i == 0) return &scratch->transient[0];
+    if (i == layers + 1) return &scratch->transient[1];
+    if (i == layers + 2) return &scratch->transient[2];
+    return nullptr;
+  };
 
   // Incremental blurs: sigma_i^2 = (k^i sigma)^2 - (k^(i-1) sigma)^2.
   std::vector<double> increment(layers + 3);
@@ -72,10 +96,13 @@ ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int o
   }
 
   for (int o = 0; o < octaves; ++o) {
+    const cv::Size size(baseSize.width >> o, baseSize.height >> o);
     for (int i = 0; i < layers + 3; ++i) {
       cv::Mat& dst = space.gaussians[size_t(o) * (layers + 3) + i];
-      if (o == 0 && i == 0) continue;
-      if (i == 0) {
+      if (cv::Mat* buffer = slot(i)) dst = imageIn(buffer, size);
+      if (o == 0 && i == 0) {
+        gaussianBlur(base, dst, blur[0], blur[1], rowParallel);
+      } else if (i == 0) {
         // Layer `layers` of the previous octave has twice the base sigma: decimate it.
         const cv::Mat& src = space.gaussian(o - 1, layers);
         cv::resize(src, dst, cv::Size(src.cols / 2, src.rows / 2), 0, 0, cv::INTER_NEAREST);
@@ -90,7 +117,33 @@ ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int o
       for (int i : {0, layers + 1, layers + 2})
         space.gaussians[size_t(o) * (layers + 3) + i].release();
   }
+}
+
+std::shared_ptr<ScaleSpace> ScaleSpacePool::takeSpace() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (spaces_.empty()) return std::make_shared<ScaleSpace>();
+  std::shared_ptr<ScaleSpace> space = std::move(spaces_.back());
+  spaces_.pop_back();
   return space;
+}
+
+void ScaleSpacePool::giveSpace(std::shared_ptr<ScaleSpace> space) {
+  if (!space || space.use_count() != 1) return;
+  std::lock_guard<std::mutex> lock(mutex_);
+  spaces_.push_back(std::move(space));
+}
+
+std::unique_ptr<BuildScratch> ScaleSpacePool::takeScratch() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (scratches_.empty()) return std::make_unique<BuildScratch>();
+  std::unique_ptr<BuildScratch> scratch = std::move(scratches_.back());
+  scratches_.pop_back();
+  return scratch;
+}
+
+void ScaleSpacePool::giveScratch(std::unique_ptr<BuildScratch> scratch) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  scratches_.push_back(std::move(scratch));
 }
 
 }  // namespace detail

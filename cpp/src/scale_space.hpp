@@ -4,6 +4,8 @@
 #include <opencv2/core.hpp>
 
 #include <cmath>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 namespace liff {
@@ -31,8 +33,18 @@ struct ScaleSpace {
   const cv::Mat& dog(int o, int i) const { return dogs[o * (layers + 2) + i]; }
 };
 
-/// Builds the pyramid of a CV_32F slice: base = upsample 2x (bilinear) and blur to
-/// sigma; each octave blurs incrementally,
+/// Memory one slice's build reuses from the last: the focal slice, its upsampled base
+/// and the three Gaussian layers per octave a detection-only pyramid does not keep
+/// (sized for octave 0; smaller octaves use the start of the same buffers).
+struct BuildScratch {
+  cv::Mat slice, base;
+  cv::Mat transient[3];
+};
+
+/// Builds the pyramid of a CV_32F slice into `space`, reusing the memory of the
+/// images it already holds when their sizes match (a pyramid of an earlier slice of
+/// the same light field): base = upsample 2x (bilinear) and blur to sigma; each octave
+/// blurs incrementally,
 ///   sigma_i^2 = (k^i sigma)^2 - (k^(i-1) sigma)^2,  k = 2^(1 / layers),
 /// and starts from layer `layers` of the previous octave decimated 2x.
 ///
@@ -43,14 +55,33 @@ struct ScaleSpace {
 ///   base^2 = max(sigma^2 - (2 * 0.5)^2 - 4 * target, 0.01) + 4 * (target - variance).
 ///
 /// With `detectionOnly`, the Gaussians no detected keypoint can use (layers 0,
-/// layers + 1 and layers + 2 of each octave) are released once the DoGs are made.
+/// layers + 1 and layers + 2 of each octave) are not kept: they are made in
+/// `scratch` (or allocated, without it) and dropped once the DoGs are made.
 ///
 /// `rowParallel`: split each blur into row stripes run in parallel (for a slice built
 /// alone); false when slices are already built one per thread, where the stripes'
 /// extra rows would be wasted work. The result is the same either way.
-ScaleSpace buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
-                           cv::Vec2d variance = {}, cv::Vec2d targetVariance = {},
-                           bool detectionOnly = false, bool rowParallel = true);
+void buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
+                     cv::Vec2d variance, cv::Vec2d targetVariance, bool detectionOnly,
+                     bool rowParallel, ScaleSpace& space, BuildScratch* scratch = nullptr);
+
+/// Pyramids and build scratch handed back by finished slices, for the next ones of
+/// the same detection pass: the pass then allocates, and the kernel zero-fills, its
+/// largest buffers once instead of once per slice. Thread-safe.
+class ScaleSpacePool {
+ public:
+  /// A pyramid released earlier, or a new empty one.
+  std::shared_ptr<ScaleSpace> takeSpace();
+  /// Gives back a pyramid nobody else holds (one still shared elsewhere is dropped).
+  void giveSpace(std::shared_ptr<ScaleSpace> space);
+  std::unique_ptr<BuildScratch> takeScratch();
+  void giveScratch(std::unique_ptr<BuildScratch> scratch);
+
+ private:
+  std::mutex mutex_;
+  std::vector<std::shared_ptr<ScaleSpace>> spaces_;
+  std::vector<std::unique_ptr<BuildScratch>> scratches_;
+};
 
 /// Octave-image coordinate -> centre-view pixel coordinate, for octave index o
 /// (0-based). Octave pixel x sits at base pixel x * 2^o (decimation keeps even

@@ -219,3 +219,16 @@ def test_nasty_inputs_do_not_kill_the_interpreter():
     )
     assert proc.returncode == 0, f"rc={proc.returncode}\nstdout={proc.stdout}\nstderr={proc.stderr}"
     assert "survived" in proc.stdout
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_sample_is_located(bad):
+    """The message names the view (t, s), row and column of the first bad sample."""
+    lf = np.zeros((3, 4, 20, 37), np.float32)
+    lf[2, 1, 13, 29] = bad      # later in view order: not reported
+    lf[1, 2, 7, 33] = bad       # view 6 (t = 1, s = 2), row 7, column 33
+    lf[1, 2, 9, 0] = bad        # same view, later row
+    with pytest.raises(ValueError) as info:
+        liff.LiFF.create().detect(lf)
+    assert "view 6, t = 1, s = 2, pixel row 7, column 33" in str(info.value)
+    assert np.isnan(lf[1, 2, 7, 33]) or np.isinf(lf[1, 2, 7, 33])  # input untouched

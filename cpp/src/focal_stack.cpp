@@ -1,7 +1,9 @@
 #include "focal_stack.hpp"
 
 #include "hot_loop.hpp"
+#include "profile.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace liff {
@@ -92,81 +94,144 @@ cv::Vec2d interpolationVariance(int T, int S, double slope) {
 
 namespace {
 
-// One parallel task of the separable shift-and-sum: output rows [yBegin, yEnd) of
-//   out(x, y) = sum_t sum_j wy_tj * H_t(y + whole_t + j, x),
-//   H_t(r, x) = sum_s sum_i wx_si * D(t, s, r, x + whole_s + i),
-// unnormalised, for D = `views` (a LightField-layout Mat), into out's rows from
-// y - firstOutRow. H_t is built once per source row (in `rows`); only in-view taps count.
-void shiftAndSumRows(const LightField& lf, const cv::Mat& views, const std::vector<Shift>& xShift,
-                     const std::vector<Shift>& yShift, int yBegin, int yEnd,
-                     std::vector<float>& rows, cv::Mat& out, int firstOutRow) {
-  const int T = lf.T, S = lf.S, V = lf.V, U = lf.U;
-  for (int y = yBegin; y < yEnd; ++y) std::fill_n(out.ptr<float>(y - firstOutRow), U, 0.f);
+// The view shifts and (without alpha) the separable normalisation of one slope.
+struct SlopeShifts {
+  std::vector<Shift> x, y;  // per view column s and row t
+  std::vector<float> wx, wy;  // inside weight per column and row (no alpha only)
+};
+
+// One parallel task of the separable shift-and-sum, for every slope at once: output
+// rows [yBegin, yEnd) of
+//   out_k(x, y) = sum_t sum_j wy_tj * H_kt(y + whole_t + j, x),
+//   H_kt(r, x) = sum_s sum_i wx_si * D(t, s, r, x + whole_s + i),
+// unnormalised, for D = `views` (a LightField-layout Mat) and slope k, into outs[k]'s
+// rows from y - firstOutRow. Each source row is read once for all slopes while it is
+// in cache (the pass is bound by reading the light field), and each slope's sums run
+// in the same order as for that slope alone. Only in-view taps count.
+void shiftAndSumRows(const LightField& lf, const cv::Mat& views,
+                     const std::vector<SlopeShifts>& shifts, int yBegin, int yEnd,
+                     std::vector<float>& rows, const std::vector<cv::Mat*>& outs,
+                     int firstOutRow) {
+  const int T = lf.T, S = lf.S, V = lf.V, U = lf.U, K = int(shifts.size());
+  for (int k = 0; k < K; ++k)
+    for (int y = yBegin; y < yEnd; ++y) std::fill_n(outs[k]->ptr<float>(y - firstOutRow), U, 0.f);
   for (int t = 0; t < T; ++t) {
-    // Source rows [r0, r1) of view row t feed output rows [yBegin, yEnd).
-    const int r0 = std::max(0, yBegin + yShift[t].whole);
-    const int r1 = std::min(V, yEnd + yShift[t].whole + 1);
-    if (r0 >= r1) continue;
-    rows.assign(size_t(r1 - r0) * U, 0.f);
-    for (int r = r0; r < r1; ++r) {
-      float* h = rows.data() + size_t(r - r0) * U;
-      for (int s = 0; s < S; ++s)
-        accumulateRow(views.ptr<float>((t * S + s) * V + r), U, xShift[s], h);
+    // Source rows [r0, r1) of view row t feed output rows [yBegin, yEnd) of some slope.
+    int r0 = V, r1 = 0;
+    for (const SlopeShifts& shift : shifts) {
+      r0 = std::min(r0, std::max(0, yBegin + shift.y[t].whole));
+      r1 = std::max(r1, std::min(V, yEnd + shift.y[t].whole + 1));
     }
-    const float w0 = 1.f - yShift[t].frac, w1 = yShift[t].frac;
-    for (int y = yBegin; y < yEnd; ++y) {
-      float* dst = out.ptr<float>(y - firstOutRow);
-      const int y0 = y + yShift[t].whole;
-      if (y0 >= r0 && y0 < r1) addScaled(rows.data() + size_t(y0 - r0) * U, w0, U, dst);
-      if (y0 + 1 >= r0 && y0 + 1 < r1 && w1 > 0.f)
-        addScaled(rows.data() + size_t(y0 + 1 - r0) * U, w1, U, dst);
+    if (r0 >= r1) continue;
+    const size_t perSlope = size_t(r1 - r0) * U;
+    rows.assign(perSlope * K, 0.f);
+    for (int r = r0; r < r1; ++r)
+      for (int s = 0; s < S; ++s) {
+        const float* src = views.ptr<float>((t * S + s) * V + r);
+        for (int k = 0; k < K; ++k)
+          accumulateRow(src, U, shifts[k].x[s], rows.data() + k * perSlope + size_t(r - r0) * U);
+      }
+    for (int k = 0; k < K; ++k) {
+      const Shift& yShift = shifts[k].y[t];
+      const float* h = rows.data() + k * perSlope;
+      const float w0 = 1.f - yShift.frac, w1 = yShift.frac;
+      for (int y = yBegin; y < yEnd; ++y) {
+        float* dst = outs[k]->ptr<float>(y - firstOutRow);
+        const int y0 = y + yShift.whole;
+        if (y0 >= r0 && y0 < r1) addScaled(h + size_t(y0 - r0) * U, w0, U, dst);
+        if (y0 + 1 >= r0 && y0 + 1 < r1 && w1 > 0.f)
+          addScaled(h + size_t(y0 + 1 - r0) * U, w1, U, dst);
+      }
     }
   }
 }
 
 }  // namespace
 
-void renderFocalSlice(const LightField& lf, double slope, cv::Mat& slice) {
-  const int T = lf.T, S = lf.S, V = lf.V, U = lf.U;
-  slice.create(V, U, CV_32F);
+void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
+                       const std::vector<cv::Mat*>& slices) {
+  CV_Assert(slopes.size() == slices.size());
+  const int T = lf.T, S = lf.S, V = lf.V, U = lf.U, K = int(slopes.size());
+  if (K == 0) return;
   const double tc = 0.5 * (T - 1), sc = 0.5 * (S - 1);
-  std::vector<Shift> xShift, yShift;
-  for (int s = 0; s < S; ++s) xShift.emplace_back(-slope * (s - sc));
-  for (int t = 0; t < T; ++t) yShift.emplace_back(-slope * (t - tc));
   // Without alpha every sample weighs 1 and the weight that falls inside the views
   // is separable, Wx(x) * Wy(y); with alpha it is the same shift-and-sum applied to
   // the weights (the values are premultiplied), so F = sum(w L) / sum(w).
   const bool weighted = !lf.weights.empty();
-  std::vector<float> wx, wy;
-  if (!weighted) {
-    wx = insideWeight(xShift, U);
-    wy = insideWeight(yShift, V);
+  std::vector<SlopeShifts> shifts(K);
+  for (int k = 0; k < K; ++k) {
+    for (int s = 0; s < S; ++s) shifts[k].x.emplace_back(-slopes[k] * (s - sc));
+    for (int t = 0; t < T; ++t) shifts[k].y.emplace_back(-slopes[k] * (t - tc));
+    if (!weighted) {
+      shifts[k].wx = insideWeight(shifts[k].x, U);
+      shifts[k].wy = insideWeight(shifts[k].y, V);
+    }
+    slices[k]->create(V, U, CV_32F);
   }
 
   const int tasks = (V + kRowsPerTask - 1) / kRowsPerTask;
   cv::parallel_for_(cv::Range(0, tasks), [&](const cv::Range& range) {
-    std::vector<float> rows;  // H_t for the source rows one task needs
-    cv::Mat weightSum;        // sum(w) for this task's rows (from yBegin), when weighted
+    StageTimer timer(kFocalStack);
+    std::vector<float> rows;  // H_kt for the source rows one task needs
+    std::vector<cv::Mat> weightSums(weighted ? K : 0);  // sum(w) of this task's rows
+    std::vector<cv::Mat*> weightOuts;
+    for (cv::Mat& sum : weightSums) {
+      sum.create(kRowsPerTask, U, CV_32F);
+      weightOuts.push_back(&sum);
+    }
     for (int task = range.start; task < range.end; ++task) {
       const int yBegin = task * kRowsPerTask, yEnd = std::min(V, yBegin + kRowsPerTask);
-      shiftAndSumRows(lf, lf.views, xShift, yShift, yBegin, yEnd, rows, slice, 0);
-      if (weighted) {
-        weightSum.create(kRowsPerTask, U, CV_32F);
-        shiftAndSumRows(lf, lf.weights, xShift, yShift, yBegin, yEnd, rows, weightSum, yBegin);
-      }
+      shiftAndSumRows(lf, lf.views, shifts, yBegin, yEnd, rows, slices, 0);
+      if (weighted)
+        shiftAndSumRows(lf, lf.weights, shifts, yBegin, yEnd, rows, weightOuts, yBegin);
       // Normalise by the weight that fell inside the views: near the centre at least
       // 1 per axis without alpha; with alpha it is 0 where no valid sample reaches,
       // and those pixels are set to 0.
-      for (int y = yBegin; y < yEnd; ++y) {
-        float* out = slice.ptr<float>(y);
-        const float* ws = weighted ? weightSum.ptr<float>(y - yBegin) : nullptr;
-        for (int x = 0; x < U; ++x) {
-          const float w = weighted ? ws[x] : wx[x] * wy[y];
-          out[x] = w > 1e-6f ? out[x] / w : 0.f;
+      for (int k = 0; k < K; ++k)
+        for (int y = yBegin; y < yEnd; ++y) {
+          float* out = slices[k]->ptr<float>(y);
+          const float* ws = weighted ? weightSums[k].ptr<float>(y - yBegin) : nullptr;
+          const float* wx = shifts[k].wx.data();
+          const float wy = weighted ? 0.f : shifts[k].wy[y];
+          for (int x = 0; x < U; ++x) {
+            const float w = weighted ? ws[x] : wx[x] * wy;
+            out[x] = w > 1e-6f ? out[x] / w : 0.f;
+          }
         }
-      }
     }
   });
+}
+
+void renderFocalSlice(const LightField& lf, double slope, cv::Mat& slice) {
+  renderFocalSlices(lf, {slope}, {&slice});
+}
+
+void FocalSliceSource::prepare(const std::vector<int>& which) {
+  std::vector<int> group;
+  for (int k : which)
+    if (!ready_.count(k)) group.push_back(k);
+  if (group.empty()) return;
+  // Fill the pass with the slopes that come next.
+  int k = std::max(next_, *std::max_element(group.begin(), group.end()) + 1);
+  for (; int(group.size()) < ahead_ && k < int(slopes_.size()); ++k)
+    if (!ready_.count(k) && std::find(group.begin(), group.end(), k) == group.end())
+      group.push_back(k);
+  std::vector<double> slopes;
+  std::vector<cv::Mat*> outputs;
+  for (int g : group) {
+    slopes.push_back(slopes_[g]);
+    outputs.push_back(&ready_[g]);
+  }
+  renderFocalSlices(lf_, slopes, outputs);
+  next_ = std::max(next_, *std::max_element(group.begin(), group.end()) + 1);
+}
+
+cv::Mat FocalSliceSource::take(int k) {
+  auto it = ready_.find(k);
+  CV_Assert(it != ready_.end());
+  cv::Mat slice = it->second;
+  ready_.erase(it);
+  return slice;
 }
 
 }  // namespace detail

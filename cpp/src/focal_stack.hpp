@@ -4,6 +4,7 @@
 
 #include "light_field.hpp"
 
+#include <map>
 #include <vector>
 
 namespace liff {
@@ -23,6 +24,37 @@ std::vector<double> slopeGrid(double first, double last, int n);
 /// F = sum(w a L) / sum(w a), and F = 0 where no valid sample reaches.
 /// Centres: s_c = (S - 1) / 2, t_c = (T - 1) / 2 (fractional for even view counts).
 void renderFocalSlice(const LightField& lf, double slope, cv::Mat& slice);
+
+/// renderFocalSlice for several slopes in one pass over the light field (rows in
+/// parallel), each slice identical to its own renderFocalSlice: the pass is bound by
+/// reading the views, which this does once for all the slopes.
+void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
+                       const std::vector<cv::Mat*>& slices);
+
+/// Focal slices rendered per pass over the light field when slices are wanted in
+/// slope order: the pass is bound by reading the views, and 4 - 6 slopes per pass cost
+/// little more than 2 (benchmarks/speed.py, docs/BENCHMARKS.md).
+constexpr int kSlicesPerPass = 6;
+
+/// Focal slices of a slope grid for a pass over the slopes in increasing order:
+/// prepare() renders the slices asked for together with the next ones not rendered
+/// yet, up to `ahead` slices in one pass (renderFocalSlices); take() hands each out.
+class FocalSliceSource {
+ public:
+  FocalSliceSource(const LightField& lf, const std::vector<double>& slopes, int ahead)
+      : lf_(lf), slopes_(slopes), ahead_(ahead) {}
+  /// Makes the slices of slope indices `which` ready (rendering those that are not).
+  void prepare(const std::vector<int>& which);
+  /// The slice of slope index k, made ready by prepare(); the source lets go of it.
+  cv::Mat take(int k);
+
+ private:
+  const LightField& lf_;
+  const std::vector<double>& slopes_;
+  int ahead_;
+  int next_ = 0;  // slope indices from here on were never rendered
+  std::map<int, cv::Mat> ready_;
+};
 
 /// Blur variance (pixels^2, along x and y) that bilinear shift-and-sum adds to an
 /// in-focus point at `slope`: the 2-tap kernel [1 - f, f] has variance f (1 - f),

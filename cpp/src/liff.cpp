@@ -253,11 +253,13 @@ int nearestSlice(const std::vector<double>& slopes, double slope) {
   return int(std::min<long>(long(slopes.size()) - 1, std::max<long>(0, index)));
 }
 
-// Builds the scale spaces of the listed slices, reusing the pool's memory when given
-// one (detection passes; `detectionOnly` pyramids).
+// Builds the scale spaces of the listed slices, their focal slices from `source`,
+// reusing the pool's memory when given one (detection passes; `detectionOnly`
+// pyramids).
 void buildSlices(const LightField& lf, const std::vector<double>& slopes,
                  const std::vector<int>& which, int layers, double sigma, int octaves,
-                 bool detectionOnly, std::map<int, std::shared_ptr<ScaleSpace>>& window,
+                 bool detectionOnly, detail::FocalSliceSource& source,
+                 std::map<int, std::shared_ptr<ScaleSpace>>& window,
                  detail::ScaleSpacePool* pool = nullptr) {
   // Every slice is topped up to the largest interpolation blur of the grid.
   cv::Vec2d target(0, 0);
@@ -265,31 +267,31 @@ void buildSlices(const LightField& lf, const std::vector<double>& slopes,
     const cv::Vec2d v = detail::interpolationVariance(lf.T, lf.S, slope);
     target = cv::Vec2d(std::max(target[0], v[0]), std::max(target[1], v[1]));
   }
-  auto build = [&](int k, bool rowParallel) {
-    std::unique_ptr<detail::BuildScratch> scratch =
-        pool ? pool->takeScratch() : std::make_unique<detail::BuildScratch>();
-    std::shared_ptr<ScaleSpace> space = pool ? pool->takeSpace() : std::make_shared<ScaleSpace>();
-    {
-      detail::StageTimer timer(detail::kFocalStack);
-      detail::renderFocalSlice(lf, slopes[k], scratch->slice);
-    }
+  const int n = int(which.size());
+  source.prepare(which);
+  std::vector<cv::Mat> slices;
+  for (int k : which) slices.push_back(source.take(k));
+  auto build = [&](int j, bool rowParallel) {
     detail::StageTimer timer(detail::kScaleSpace);
-    const cv::Vec2d variance = detail::interpolationVariance(lf.T, lf.S, slopes[k]);
-    detail::buildScaleSpace(scratch->slice, layers, sigma, octaves, variance, target,
-                            detectionOnly, rowParallel, *space, pool ? scratch.get() : nullptr);
+    std::unique_ptr<detail::BuildScratch> scratch = pool ? pool->takeScratch() : nullptr;
+    std::shared_ptr<ScaleSpace> space = pool ? pool->takeSpace() : std::make_shared<ScaleSpace>();
+    const cv::Vec2d variance = detail::interpolationVariance(lf.T, lf.S, slopes[which[j]]);
+    detail::buildScaleSpace(slices[j], layers, sigma, octaves, variance, target, detectionOnly,
+                            rowParallel, *space, scratch.get());
+    slices[j].release();
     if (pool) pool->giveScratch(std::move(scratch));
     return space;
   };
   // Whole rounds of one slice per thread run in parallel (each slice serial inside);
   // the remainder is built one slice at a time with the parallelism inside it
-  // (row-parallel shift-and-sum and blurs), so no thread idles.
+  // (row-parallel blurs), so no thread idles.
   const int threads = std::max(1, cv::getNumThreads());
-  const int n = int(which.size()), parallelCount = n - n % threads;
+  const int parallelCount = n - n % threads;
   std::vector<std::shared_ptr<ScaleSpace>> built(n);
   cv::parallel_for_(cv::Range(0, parallelCount), [&](const cv::Range& range) {
-    for (int j = range.start; j < range.end; ++j) built[j] = build(which[j], false);
+    for (int j = range.start; j < range.end; ++j) built[j] = build(j, false);
   });
-  for (int j = parallelCount; j < n; ++j) built[j] = build(which[j], true);
+  for (int j = parallelCount; j < n; ++j) built[j] = build(j, true);
   for (int j = 0; j < n; ++j) window[which[j]] = built[j];
 }
 
@@ -312,12 +314,14 @@ int sliceBatch(const LightField& lf, const detail::MemoryEstimate& need, double 
     CV_Error(cv::Error::StsNoMem,
              cv::format("LiFF: a light field of %d x %d views of %d x %d pixels needs about "
                         "%.0f MB (grey light field %.0f MB, 3 scale spaces of %.0f MB, %.0f MB "
-                        "while building one), more than the memory limit of %.4g MB (%s); "
+                        "while building one, %d focal slices of %.1f MB), more than the memory "
+                        "limit of %.4g MB (%s); "
                         "expected a light field that fits: crop or downsample the views, or "
                         "raise the limit with setMemoryLimitMB",
                         lf.T, lf.S, lf.V, lf.U, need.total(1) / kBytesPerMB,
                         need.lightFieldBytes / kBytesPerMB, need.windowSliceBytes / kBytesPerMB,
-                        need.buildBytes / kBytesPerMB, limit / kBytesPerMB,
+                        need.buildBytes / kBytesPerMB, need.slicesAhead(1),
+                        need.focalSliceBytes / kBytesPerMB, limit / kBytesPerMB,
                         automatic ? "automatic: the memory available now" : "setMemoryLimitMB"));
   return batch;
 }
@@ -368,8 +372,10 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
     const cv::Size view = lf.viewSize();
     const double full = detail::scaleSpaceBytes(view, nOctaveLayers_, octaves, false);
     need.windowSliceBytes = detail::scaleSpaceBytes(view, nOctaveLayers_, octaves, true);
-    // The rest of a full pyramid, the slice and its 2x upsampled base.
-    need.buildBytes = full - need.windowSliceBytes + 5.0 * view.area() * sizeof(float);
+    // The rest of a full pyramid and the 2x upsampled base.
+    need.buildBytes = full - need.windowSliceBytes + 4.0 * view.area() * sizeof(float);
+    need.focalSliceBytes = double(view.area()) * sizeof(float);
+    need.slicesPerPass = detail::kSlicesPerPass;
   }
   const int batch = sliceBatch(lf, need, memoryLimitMB_);
   detail::convertLightField(input, lf);
@@ -396,6 +402,7 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
     if (!wantDescriptors) return;
     cv::Mat descriptors(int(kept.size()), detail::kDescriptorSize, descriptorType_);
     // Build each needed scale space once, `batch` slices at a time.
+    detail::FocalSliceSource source(lf, slopes, 0);
     std::vector<int> needed(sliceOf);
     std::sort(needed.begin(), needed.end());
     needed.erase(std::unique(needed.begin(), needed.end()), needed.end());
@@ -403,7 +410,7 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
       const std::vector<int> slices(needed.begin() + first,
                                     needed.begin() + std::min(needed.size(), first + batch));
       window.clear();
-      buildSlices(lf, slopes, slices, nOctaveLayers_, sigma_, octaves, false, window);
+      buildSlices(lf, slopes, slices, nOctaveLayers_, sigma_, octaves, false, source, window);
       std::vector<cv::KeyPoint> group;
       std::vector<int> groupSlice, rows;
       for (size_t j = 0; j < kept.size(); ++j)
@@ -427,13 +434,15 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   keypoints.clear();
   std::vector<cv::Mat> descriptorBlocks;
   detail::ScaleSpacePool pool;
+  detail::FocalSliceSource source(lf, slopes, need.slicesAhead(batch));
   const detail::DetectParams params{nOctaveLayers_, contrastThreshold_, edgeThreshold_, sigma_};
   for (int k0 = 0; octaves >= 1 && k0 < M; k0 += batch) {
     const int k1 = std::min(M, k0 + batch);  // search slices [k0, k1)
     std::vector<int> missing;
     for (int k = std::max(0, k0 - 1); k < std::min(M, k1 + 1); ++k)
       if (!window.count(k)) missing.push_back(k);
-    buildSlices(lf, slopes, missing, nOctaveLayers_, sigma_, octaves, true, window, &pool);
+    buildSlices(lf, slopes, missing, nOctaveLayers_, sigma_, octaves, true, source, window,
+                &pool);
 
     // Search the batch as fixed row-stripe tasks over all its slices, octaves and
     // layers, so both cores stay busy; results are gathered in task order.

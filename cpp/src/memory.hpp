@@ -4,6 +4,8 @@
 
 #include <opencv2/core.hpp>
 
+#include <algorithm>
+
 namespace liff {
 namespace detail {
 
@@ -17,14 +19,19 @@ double scaleSpaceBytes(cv::Size viewSize, int layers, int octaves, bool detectio
 /// built at once:
 ///   grey light field (+ weights)           lightFieldBytes
 ///   + (batch + 2) detection pyramids        (the sliding window over slopes)
-///   + batch * (full - detection pyramid + slice + upsampled base)   while building.
+///   + batch * (full - detection pyramid + upsampled base)   while building
+///   + the focal slices rendered ahead       (at least batch + 1 per pass).
 struct MemoryEstimate {
   double lightFieldBytes = 0;
   double windowSliceBytes = 0;  // one detection-only pyramid
   double buildBytes = 0;        // extra while one slice is being built
+  double focalSliceBytes = 0;   // one focal slice
+  int slicesPerPass = 1;        // focal slices rendered in one pass, at least
 
+  int slicesAhead(int batch) const { return std::max(slicesPerPass, batch + 1); }
   double total(int batch) const {
-    return lightFieldBytes + (batch + 2) * windowSliceBytes + batch * buildBytes;
+    return lightFieldBytes + (batch + 2) * windowSliceBytes + batch * buildBytes +
+           slicesAhead(batch) * focalSliceBytes;
   }
 };
 

@@ -45,7 +45,7 @@ namespace {
 // new image when there is no buffer.
 cv::Mat imageIn(cv::Mat* buffer, cv::Size size) {
   if (!buffer) return cv::Mat(size, CV_32F);
-  CV_Assert(buffer->isContinuous() && buffer->total() >= size.area());
+  CV_Assert(buffer->isContinuous() && buffer->total() >= size_t(size.area()));
   return cv::Mat(size, CV_32F, buffer->data);
 }
 

@@ -33,11 +33,11 @@ struct ScaleSpace {
   const cv::Mat& dog(int o, int i) const { return dogs[o * (layers + 2) + i]; }
 };
 
-/// Memory one slice's build reuses from the last: the focal slice, its upsampled base
-/// and the three Gaussian layers per octave a detection-only pyramid does not keep
-/// (sized for octave 0; smaller octaves use the start of the same buffers).
+/// Memory one slice's build reuses from the last: the upsampled base and the three
+/// Gaussian layers per octave a detection-only pyramid does not keep (sized for
+/// octave 0; smaller octaves use the start of the same buffers).
 struct BuildScratch {
-  cv::Mat slice, base;
+  cv::Mat base;
   cv::Mat transient[3];
 };
 

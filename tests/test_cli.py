@@ -206,3 +206,13 @@ def test_damaged_feature_file_is_an_error_not_a_traceback(disk_npz, tmp_path, ca
 def test_sfm_needs_two_poses(disk_npz, tmp_path, capsys):
     assert main(["sfm", disk_npz, "--workspace", str(tmp_path / "ws")]) == 1
     assert "at least 2" in capsys.readouterr().err
+
+
+def test_workers_share_the_cores():
+    """N worker processes run LiFF on cpu_count // N threads each, not all cores each."""
+    from liff.cli import common
+
+    jobs = [(), (), ()]
+    threads, failures = common.run_batch(liff.getNumThreads, jobs, 2, "detect", str)
+    assert failures == 0
+    assert threads == [max(1, (os.cpu_count() or 1) // 2)] * len(jobs)

@@ -121,7 +121,11 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
             if progress:
                 progress.update()
     else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        # Each worker gets its share of the cores: LiFF uses all of them by default, and
+        # N processes that each did would oversubscribe the machine N times over.
+        threads = max(1, (os.cpu_count() or 1) // workers)
+        with ProcessPoolExecutor(max_workers=workers, initializer=_set_threads,
+                                 initargs=(threads,)) as pool:
             futures = {pool.submit(function, *job): i for i, job in enumerate(jobs)}
             for future in as_completed(futures):
                 i = futures[future]
@@ -134,6 +138,13 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
     if progress:
         progress.close()
     return results, failures
+
+
+def _set_threads(threads: int) -> None:
+    """Worker initializer: LiFF's thread count for this process."""
+    import liff
+
+    liff.setNumThreads(threads)
 
 
 def _progress(total: int, command: str):

@@ -92,6 +92,9 @@ void columnRange(int i, float cosT, float sinT, int d, int& jBegin, int& jEnd) {
   jEnd = std::min(jEnd, int(std::min(double(INT_MAX / 2), std::ceil(hi) + 1)));
 }
 
+// Samples whose trilinear weights are computed at once (8 floats each, on the stack).
+constexpr int kWeightChunk = 256;
+
 // Trilinear weights of each sample's magnitude over its 2 x 2 x 2 neighbouring
 // (row, column, orientation) bins, and the index of the first of them in the padded
 // histogram. Branch-free so that it vectorises; the scatter that follows is serial.
@@ -181,26 +184,28 @@ void rawDescriptor(const cv::Mat& image, cv::Point2f point, float angleDegrees, 
   cv::hal::magnitude32f(X, Y, X, count);
   cv::hal::exp32f(W, W, count);
 
-  // Weights first (vectorised; reusing the X and Y buffers, whose values are no
-  // longer needed once in the weights), then the serial scatter into a histogram
+  // Weights first, a chunk of samples at a time (vectorised; bounded scratch, however
+  // large the keypoint), then the serial scatter in sample order into a histogram
   // with a guard cell on each side of the grid and two wrap bins.
-  cv::AutoBuffer<float> weightBuffer(size_t(count) * 8 + 1);
-  cv::AutoBuffer<int> indexBuffer(size_t(count) + 1);
-  float* weights = weightBuffer.data();
-  int* index = indexBuffer.data();
-  trilinearWeights(R, C, O, X, W, count, angleDegrees, index, weights);
   float hist[(kDescriptorWidth + 2) * (kDescriptorWidth + 2) * (kDescriptorBins + 2)] = {};
-  for (int k = 0; k < count; ++k) {
-    float* h = hist + index[k];
-    const float* w = weights + size_t(k) * 8;
-    h[0] += w[0];
-    h[1] += w[1];
-    h[n + 2] += w[2];
-    h[n + 3] += w[3];
-    h[(d + 2) * (n + 2)] += w[4];
-    h[(d + 2) * (n + 2) + 1] += w[5];
-    h[(d + 3) * (n + 2)] += w[6];
-    h[(d + 3) * (n + 2) + 1] += w[7];
+  float weights[kWeightChunk * 8];
+  int index[kWeightChunk];
+  for (int begin = 0; begin < count; begin += kWeightChunk) {
+    const int chunk = std::min(kWeightChunk, count - begin);
+    trilinearWeights(R + begin, C + begin, O + begin, X + begin, W + begin, chunk,
+                     angleDegrees, index, weights);
+    for (int k = 0; k < chunk; ++k) {
+      float* h = hist + index[k];
+      const float* w = weights + size_t(k) * 8;
+      h[0] += w[0];
+      h[1] += w[1];
+      h[n + 2] += w[2];
+      h[n + 3] += w[3];
+      h[(d + 2) * (n + 2)] += w[4];
+      h[(d + 2) * (n + 2) + 1] += w[5];
+      h[(d + 3) * (n + 2)] += w[6];
+      h[(d + 3) * (n + 2) + 1] += w[7];
+    }
   }
   // Fold the wrap bins and drop the guard cells.
   for (int i = 0; i < d; ++i)

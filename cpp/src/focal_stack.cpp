@@ -115,32 +115,42 @@ void shiftAndSumRows(const LightField& lf, const cv::Mat& views,
   const int T = lf.T, S = lf.S, V = lf.V, U = lf.U, K = int(shifts.size());
   for (int k = 0; k < K; ++k)
     for (int y = yBegin; y < yEnd; ++y) std::fill_n(outs[k]->ptr<float>(y - firstOutRow), U, 0.f);
+  std::vector<int> first(K), last(K);  // per slope: its source rows [first, last)
+  std::vector<size_t> block(K);          // and where its H rows start in `rows`
   for (int t = 0; t < T; ++t) {
-    // Source rows [r0, r1) of view row t feed output rows [yBegin, yEnd) of some slope.
+    // Source rows [first_k, last_k) of view row t feed output rows [yBegin, yEnd) of
+    // slope k; each source row is read once for the slopes whose range holds it.
     int r0 = V, r1 = 0;
-    for (const SlopeShifts& shift : shifts) {
-      r0 = std::min(r0, std::max(0, yBegin + shift.y[t].whole));
-      r1 = std::max(r1, std::min(V, yEnd + shift.y[t].whole + 1));
+    size_t size = 0;
+    for (int k = 0; k < K; ++k) {
+      first[k] = std::max(0, yBegin + shifts[k].y[t].whole);
+      last[k] = std::max(first[k], std::min(V, yEnd + shifts[k].y[t].whole + 1));
+      block[k] = size;
+      size += size_t(last[k] - first[k]) * U;
+      if (first[k] < last[k]) {
+        r0 = std::min(r0, first[k]);
+        r1 = std::max(r1, last[k]);
+      }
     }
     if (r0 >= r1) continue;
-    const size_t perSlope = size_t(r1 - r0) * U;
-    rows.assign(perSlope * K, 0.f);
+    rows.assign(size, 0.f);
     for (int r = r0; r < r1; ++r)
       for (int s = 0; s < S; ++s) {
         const float* src = views.ptr<float>((t * S + s) * V + r);
         for (int k = 0; k < K; ++k)
-          accumulateRow(src, U, shifts[k].x[s], rows.data() + k * perSlope + size_t(r - r0) * U);
+          if (r >= first[k] && r < last[k])
+            accumulateRow(src, U, shifts[k].x[s], rows.data() + block[k] + size_t(r - first[k]) * U);
       }
     for (int k = 0; k < K; ++k) {
       const Shift& yShift = shifts[k].y[t];
-      const float* h = rows.data() + k * perSlope;
+      const float* h = rows.data() + block[k];
       const float w0 = 1.f - yShift.frac, w1 = yShift.frac;
       for (int y = yBegin; y < yEnd; ++y) {
         float* dst = outs[k]->ptr<float>(y - firstOutRow);
         const int y0 = y + yShift.whole;
-        if (y0 >= r0 && y0 < r1) addScaled(h + size_t(y0 - r0) * U, w0, U, dst);
-        if (y0 + 1 >= r0 && y0 + 1 < r1 && w1 > 0.f)
-          addScaled(h + size_t(y0 + 1 - r0) * U, w1, U, dst);
+        if (y0 >= first[k] && y0 < last[k]) addScaled(h + size_t(y0 - first[k]) * U, w0, U, dst);
+        if (y0 + 1 >= first[k] && y0 + 1 < last[k] && w1 > 0.f)
+          addScaled(h + size_t(y0 + 1 - first[k]) * U, w1, U, dst);
       }
     }
   }
@@ -211,9 +221,10 @@ void FocalSliceSource::prepare(const std::vector<int>& which) {
   for (int k : which)
     if (!ready_.count(k)) group.push_back(k);
   if (group.empty()) return;
-  // Fill the pass with the slopes that come next.
+  // Fill the pass with the slopes that come next, holding at most `ahead_` slices
+  // (or just the ones asked for, if more).
   int k = std::max(next_, *std::max_element(group.begin(), group.end()) + 1);
-  for (; int(group.size()) < ahead_ && k < int(slopes_.size()); ++k)
+  for (; int(group.size() + ready_.size()) < ahead_ && k < int(slopes_.size()); ++k)
     if (!ready_.count(k) && std::find(group.begin(), group.end(), k) == group.end())
       group.push_back(k);
   std::vector<double> slopes;

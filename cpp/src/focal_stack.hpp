@@ -37,8 +37,10 @@ void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
 constexpr int kSlicesPerPass = 6;
 
 /// Focal slices of a slope grid for a pass over the slopes in increasing order:
-/// prepare() renders the slices asked for together with the next ones not rendered
-/// yet, up to `ahead` slices in one pass (renderFocalSlices); take() hands each out.
+/// prepare() renders the slices asked for that are not ready, together with the next
+/// ones not rendered yet while it holds fewer than `ahead` slices, in one pass
+/// (renderFocalSlices); take() hands each out. It holds at most max(ahead, slices
+/// asked for at once).
 class FocalSliceSource {
  public:
   FocalSliceSource(const LightField& lf, const std::vector<double>& slopes, int ahead)

@@ -253,12 +253,12 @@ int nearestSlice(const std::vector<double>& slopes, double slope) {
   return int(std::min<long>(long(slopes.size()) - 1, std::max<long>(0, index)));
 }
 
-// Builds the scale spaces of the listed slices, their focal slices from `source`,
-// reusing the pool's memory when given one (detection passes; `detectionOnly`
-// pyramids).
+// Builds the scale spaces of the listed slices, at most `batch` at once (the memory
+// estimate's count), their focal slices from `source`, reusing the pool's memory
+// when given one (detection passes; `detectionOnly` pyramids).
 void buildSlices(const LightField& lf, const std::vector<double>& slopes,
                  const std::vector<int>& which, int layers, double sigma, int octaves,
-                 bool detectionOnly, detail::FocalSliceSource& source,
+                 bool detectionOnly, int batch, detail::FocalSliceSource& source,
                  std::map<int, std::shared_ptr<ScaleSpace>>& window,
                  detail::ScaleSpacePool* pool = nullptr) {
   // Every slice is topped up to the largest interpolation blur of the grid.
@@ -285,12 +285,12 @@ void buildSlices(const LightField& lf, const std::vector<double>& slopes,
   // Whole rounds of one slice per thread run in parallel (each slice serial inside);
   // the remainder is built one slice at a time with the parallelism inside it
   // (row-parallel blurs), so no thread idles.
-  const int threads = std::max(1, cv::getNumThreads());
-  const int parallelCount = n - n % threads;
+  const int threads = std::max(1, std::min(cv::getNumThreads(), batch));
+  const int parallelCount = threads > 1 ? n - n % threads : 0;
   std::vector<std::shared_ptr<ScaleSpace>> built(n);
   cv::parallel_for_(cv::Range(0, parallelCount), [&](const cv::Range& range) {
     for (int j = range.start; j < range.end; ++j) built[j] = build(j, false);
-  });
+  }, threads);  // `threads` stripes: no more than that many built at once
   for (int j = parallelCount; j < n; ++j) built[j] = build(j, true);
   for (int j = 0; j < n; ++j) window[which[j]] = built[j];
 }
@@ -410,7 +410,8 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
       const std::vector<int> slices(needed.begin() + first,
                                     needed.begin() + std::min(needed.size(), first + batch));
       window.clear();
-      buildSlices(lf, slopes, slices, nOctaveLayers_, sigma_, octaves, false, source, window);
+      buildSlices(lf, slopes, slices, nOctaveLayers_, sigma_, octaves, false, batch, source,
+                  window);
       std::vector<cv::KeyPoint> group;
       std::vector<int> groupSlice, rows;
       for (size_t j = 0; j < kept.size(); ++j)
@@ -441,8 +442,8 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
     std::vector<int> missing;
     for (int k = std::max(0, k0 - 1); k < std::min(M, k1 + 1); ++k)
       if (!window.count(k)) missing.push_back(k);
-    buildSlices(lf, slopes, missing, nOctaveLayers_, sigma_, octaves, true, source, window,
-                &pool);
+    buildSlices(lf, slopes, missing, nOctaveLayers_, sigma_, octaves, true, batch, source,
+                window, &pool);
 
     // Search the batch as fixed row-stripe tasks over all its slices, octaves and
     // layers, so both cores stay busy; results are gathered in task order.

@@ -223,3 +223,19 @@ def test_compute_far_and_huge_keypoints_do_not_crash():
 def test_automatic_slope_count_is_bounded():
     with pytest.raises(ValueError, match="axis order"):
         liff.LiFF.create().slopesFor(1, 100000)
+
+
+@pytest.mark.parametrize("first, last", [(-1.0, 1.0), (-12.0, 12.0)])
+def test_focal_slices_do_not_depend_on_how_they_are_grouped(first, last):
+    """Detection renders up to 6 focal slices per pass over the light field, compute()
+    only the slices its keypoints need, a few at a time; each slice must be the same
+    either way, so the descriptors are exactly equal. Wide slope ranges put the slices'
+    source rows far apart."""
+    from liff import synthetic
+
+    lf = synthetic.textured_layers((7, 7, 72, 88), noise_variance=0).light_field
+    d = liff.LiFF.create(firstSlope=first, lastSlope=last, numSlopes=13)
+    kps, desc = d.detectAndCompute(lf)
+    assert len(kps) > 20
+    again, desc2 = d.compute(lf, kps[::-1])  # another order: other slice groups
+    np.testing.assert_array_equal(desc2[::-1], desc)

@@ -92,3 +92,16 @@ def test_bad_alpha_is_refused(detector, blob_lf, bad, word):
     with pytest.raises(ValueError, match=word):
         detector.detect(lf)
     np.testing.assert_array_equal(lf, before)
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1e-9, 1e-20])
+def test_weights_are_relative(detector, blob_lf, scale):
+    """Only ratios of weights matter (sum(a L) / sum(a)): alpha scaled by any positive
+    constant, however small, finds the same features, with zero-weight samples still
+    ignored (a third of the views' columns below)."""
+    alpha = np.ones(blob_lf.shape, np.float32)
+    alpha[:, :, :, ::3] = 0.0
+    reference = detector.detect(with_alpha(blob_lf.astype(np.float32), alpha))
+    assert len(reference) > 10
+    scaled = detector.detect(with_alpha(blob_lf.astype(np.float32), alpha * np.float32(scale)))
+    lfhelpers.assert_close_keypoints(reference, scaled, atol=1e-3)

@@ -13,6 +13,10 @@ namespace {
 // Rows of the slice one parallel task renders; fixed, so results never depend on threads.
 constexpr int kRowsPerTask = 16;
 
+// A pixel whose summed tap weight is at most this (relative to one full-weight sample)
+// has no valid sample: it is set to 0 rather than divided by almost nothing.
+constexpr float kNoSampleWeight = 1e-6f;
+
 // Largest shift we represent (light field sides are at most 2^20).
 constexpr double kMaxShift = double(1 << 22);
 
@@ -179,6 +183,7 @@ void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
     slices[k]->create(V, U, CV_32F);
   }
 
+  const float floor = kNoSampleWeight * (weighted ? lf.maxWeight : 1.f);
   const int tasks = (V + kRowsPerTask - 1) / kRowsPerTask;
   cv::parallel_for_(cv::Range(0, tasks), [&](const cv::Range& range) {
     StageTimer timer(kFocalStack);
@@ -196,7 +201,8 @@ void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
         shiftAndSumRows(lf, lf.weights, shifts, yBegin, yEnd, rows, weightOuts, yBegin);
       // Normalise by the weight that fell inside the views: near the centre at least
       // 1 per axis without alpha; with alpha it is 0 where no valid sample reaches,
-      // and those pixels are set to 0.
+      // and those pixels are set to 0 (the test is relative to the largest weight,
+      // since scaling every weight changes nothing else).
       for (int k = 0; k < K; ++k)
         for (int y = yBegin; y < yEnd; ++y) {
           float* out = slices[k]->ptr<float>(y);
@@ -205,7 +211,7 @@ void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
           const float wy = weighted ? 0.f : shifts[k].wy[y];
           for (int x = 0; x < U; ++x) {
             const float w = weighted ? ws[x] : wx[x] * wy;
-            out[x] = w > 1e-6f ? out[x] / w : 0.f;
+            out[x] = w > floor ? out[x] / w : 0.f;
           }
         }
     }

@@ -197,6 +197,7 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
       CV_Error(cv::Error::StsBadArg,
                cv::format("LiFF: the light field's alpha channel holds a negative weight "
                           "(%g); expected per-sample validity weights >= 0", minWeight));
+    lf.maxWeight = float(maxWeight);
     if (minWeight == maxWeight && maxWeight == 1.0) {
       weights.release();  // all samples fully valid: the unweighted focal stack is the same
     } else {

@@ -16,6 +16,9 @@ struct LightField {
   int T = 0, S = 0, V = 0, U = 0;
   cv::Mat views;
   cv::Mat weights;
+  /// Largest weight (1 without alpha). Only ratios of weights matter, so the focal
+  /// stack's "no valid sample reaches this pixel" test is relative to it.
+  float maxWeight = 1.f;
 
   const float* view(int t, int s) const { return views.ptr<float>((t * S + s) * V); }
   cv::Mat viewMat(int t, int s) const { return views.rowRange((t * S + s) * V, (t * S + s + 1) * V); }

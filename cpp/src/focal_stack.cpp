@@ -183,7 +183,7 @@ void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
     slices[k]->create(V, U, CV_32F);
   }
 
-  const float floor = kNoSampleWeight * (weighted ? lf.maxWeight : 1.f);
+  const float noSample = kNoSampleWeight * (weighted ? lf.maxWeight : 1.f);
   const int tasks = (V + kRowsPerTask - 1) / kRowsPerTask;
   cv::parallel_for_(cv::Range(0, tasks), [&](const cv::Range& range) {
     StageTimer timer(kFocalStack);
@@ -211,7 +211,7 @@ void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
           const float wy = weighted ? 0.f : shifts[k].wy[y];
           for (int x = 0; x < U; ++x) {
             const float w = weighted ? ws[x] : wx[x] * wy;
-            out[x] = w > floor ? out[x] / w : 0.f;
+            out[x] = w > noSample ? out[x] / w : 0.f;
           }
         }
     }

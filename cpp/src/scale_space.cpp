@@ -41,12 +41,10 @@ int numOctaves(cv::Size viewSize) {
 
 namespace {
 
-// Header over the start of `buffer` (which must hold at least `size` floats), or a
-// new image when there is no buffer.
-cv::Mat imageIn(cv::Mat* buffer, cv::Size size) {
-  if (!buffer) return cv::Mat(size, CV_32F);
-  CV_Assert(buffer->isContinuous() && buffer->total() >= size_t(size.area()));
-  return cv::Mat(size, CV_32F, buffer->data);
+// A `size` image over the start of `buffer`, which must hold at least that many floats.
+cv::Mat imageIn(const cv::Mat& buffer, cv::Size size) {
+  CV_Assert(buffer.isContinuous() && buffer.total() >= size_t(size.area()));
+  return cv::Mat(size, CV_32F, buffer.data);
 }
 
 }  // namespace
@@ -99,7 +97,7 @@ void buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves
     const cv::Size size(baseSize.width >> o, baseSize.height >> o);
     for (int i = 0; i < layers + 3; ++i) {
       cv::Mat& dst = space.gaussians[size_t(o) * (layers + 3) + i];
-      if (cv::Mat* buffer = slot(i)) dst = imageIn(buffer, size);
+      if (const cv::Mat* buffer = slot(i)) dst = imageIn(*buffer, size);
       if (o == 0 && i == 0) {
         gaussianBlur(base, dst, blur[0], blur[1], rowParallel);
       } else if (i == 0) {

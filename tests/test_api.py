@@ -237,5 +237,5 @@ def test_focal_slices_do_not_depend_on_how_they_are_grouped(first, last):
     d = liff.LiFF.create(firstSlope=first, lastSlope=last, numSlopes=13)
     kps, desc = d.detectAndCompute(lf)
     assert len(kps) > 20
-    again, desc2 = d.compute(lf, kps[::-1])  # another order: other slice groups
+    _, desc2 = d.compute(lf, kps[::-1])  # another order: other slice groups
     np.testing.assert_array_equal(desc2[::-1], desc)

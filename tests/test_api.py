@@ -239,3 +239,18 @@ def test_focal_slices_do_not_depend_on_how_they_are_grouped(first, last):
     assert len(kps) > 20
     _, desc2 = d.compute(lf, kps[::-1])  # another order: other slice groups
     np.testing.assert_array_equal(desc2[::-1], desc)
+
+
+def test_submodules_reachable_from_import_liff():
+    """``import liff`` then ``liff.io.read_light_field`` (as the README writes it) works;
+    unknown names still raise AttributeError."""
+    code = ("import liff; assert callable(liff.io.read_light_field); "
+            "assert callable(liff.preprocess.prepare); import sys; "
+            "assert 'liff.colmap' not in sys.modules\n"
+            "try:\n    liff.nothing\nexcept AttributeError as e:\n    assert 'nothing' in str(e)\n"
+            "else:\n    raise SystemExit('no AttributeError')")
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr

@@ -20,3 +20,16 @@ __all__ = [
     "opencvVersion",
 ]
 __version__ = "0.1.0"
+
+# Submodules load on first use (``import liff; liff.io.read_light_field(...)`` works
+# without paying for readers, plotting or pycolmap at ``import liff``).
+_SUBMODULES = frozenset({"baselines", "captures", "colmap", "demo", "feature_file", "io",
+                         "matching", "plot", "preprocess", "scoring", "synthetic"})
+
+
+def __getattr__(name):
+    if name in _SUBMODULES:
+        import importlib
+
+        return importlib.import_module(f".{name}", __name__)
+    raise AttributeError(f"module 'liff' has no attribute {name!r}")

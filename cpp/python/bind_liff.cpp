@@ -4,9 +4,7 @@
 
 #include <pybind11/stl.h>
 
-#include <cctype>
 #include <climits>
-#include <map>
 #include <string>
 #include <type_traits>
 
@@ -83,18 +81,6 @@ T number(const py::handle& value, const char* name) {
   }
 }
 
-// The create() keyword of a setter: "NFeatures" -> "nfeatures", "NOctaveLayers" ->
-// "nOctaveLayers", "ContrastThreshold" -> "contrastThreshold".
-const char* paramName(const char* setterName) {
-  static const std::map<std::string, std::string> names = {
-      {"NFeatures", "nfeatures"}, {"NOctaveLayers", "nOctaveLayers"}};
-  static thread_local std::string name;
-  const auto it = names.find(setterName);
-  name = it != names.end() ? it->second : std::string(setterName);
-  if (it == names.end()) name[0] = char(std::tolower(name[0]));
-  return name.c_str();
-}
-
 }  // namespace
 
 void BindLiFF(py::module_& m) {
@@ -119,22 +105,23 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
           "numSlopes"_a = 0, "descriptorType"_a = int(CV_32F), "rootSift"_a = false,
           "Creates a detector; parameters as liff.LiFF.create.");
 
-#define LIFF_BIND_PARAM(Name, Type, Doc)                                                    \
+// Name: the getter/setter suffix; key: the create() keyword that errors name.
+#define LIFF_BIND_PARAM(Name, key, Type, Doc)                                               \
   cls.def("get" #Name, [](const PyLiFF& s) { return s.impl->get##Name(); }, "Returns " Doc); \
   cls.def("set" #Name,                                                                        \
-          [](PyLiFF& s, const py::object& v) { s.impl->set##Name(number<Type>(v, paramName(#Name))); }, \
+          [](PyLiFF& s, const py::object& v) { s.impl->set##Name(number<Type>(v, #key)); },   \
           "value"_a, "Sets " Doc " Raises ValueError if out of range.");
-  LIFF_BIND_PARAM(NFeatures, int, "the number of best features kept (0 = all).")
-  LIFF_BIND_PARAM(NOctaveLayers, int, "the number of DoG layers per octave.")
-  LIFF_BIND_PARAM(ContrastThreshold, double, "the contrast threshold (cv::SIFT meaning).")
-  LIFF_BIND_PARAM(EdgeThreshold, double, "the edge (principal curvature ratio) threshold.")
-  LIFF_BIND_PARAM(Sigma, double, "the base octave's Gaussian sigma.")
-  LIFF_BIND_PARAM(FirstSlope, double, "the first slope of the focal stack (px per view).")
-  LIFF_BIND_PARAM(LastSlope, double, "the last slope of the focal stack (px per view).")
-  LIFF_BIND_PARAM(NumSlopes, int, "the number of slopes (0 = automatic).")
-  LIFF_BIND_PARAM(DescriptorType, int, "the descriptor type, cv2.CV_32F or cv2.CV_8U.")
-  LIFF_BIND_PARAM(RootSift, bool, "whether descriptors are RootSIFT-normalised.")
-  LIFF_BIND_PARAM(MemoryLimitMB, double,
+  LIFF_BIND_PARAM(NFeatures, nfeatures, int, "the number of best features kept (0 = all).")
+  LIFF_BIND_PARAM(NOctaveLayers, nOctaveLayers, int, "the number of DoG layers per octave.")
+  LIFF_BIND_PARAM(ContrastThreshold, contrastThreshold, double, "the contrast threshold (cv::SIFT meaning).")
+  LIFF_BIND_PARAM(EdgeThreshold, edgeThreshold, double, "the edge (principal curvature ratio) threshold.")
+  LIFF_BIND_PARAM(Sigma, sigma, double, "the base octave's Gaussian sigma.")
+  LIFF_BIND_PARAM(FirstSlope, firstSlope, double, "the first slope of the focal stack (px per view).")
+  LIFF_BIND_PARAM(LastSlope, lastSlope, double, "the last slope of the focal stack (px per view).")
+  LIFF_BIND_PARAM(NumSlopes, numSlopes, int, "the number of slopes (0 = automatic).")
+  LIFF_BIND_PARAM(DescriptorType, descriptorType, int, "the descriptor type, cv2.CV_32F or cv2.CV_8U.")
+  LIFF_BIND_PARAM(RootSift, rootSift, bool, "whether descriptors are RootSIFT-normalised.")
+  LIFF_BIND_PARAM(MemoryLimitMB, memoryLimitMB, double,
                   "the memory limit in MB (0 = automatic: the memory available; inf = none); "
                   "a light field that cannot fit raises MemoryError before large allocations.")
 #undef LIFF_BIND_PARAM

@@ -218,10 +218,6 @@ void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
   });
 }
 
-void renderFocalSlice(const LightField& lf, double slope, cv::Mat& slice) {
-  renderFocalSlices(lf, {slope}, {&slice});
-}
-
 void FocalSliceSource::prepare(const std::vector<int>& which) {
   std::vector<int> group;
   for (int k : which)

@@ -13,9 +13,10 @@ namespace detail {
 /// The slopes linspace(first, last, n); n == 1 gives the midpoint (first + last) / 2.
 std::vector<double> slopeGrid(double first, double last, int n);
 
-/// Renders the focal slice at `slope` (pixels per view step) into `slice` (CV_32F, V x U):
+/// Renders the focal slice of each slope m = slopes[k] (pixels per view step) into
+/// *slices[k] (CV_32F, V x U):
 ///
-///   F(x, y) = sum_{t,s} sum_taps w * L(t, s, y - slope*(t - t_c), x - slope*(s - s_c))
+///   F(x, y) = sum_{t,s} sum_taps w * L(t, s, y - m*(t - t_c), x - m*(s - s_c))
 ///             / sum_{t,s} sum_taps w
 ///
 /// where the taps are the 2x2 bilinear neighbours of the (generally fractional)
@@ -23,11 +24,9 @@ std::vector<double> slopeGrid(double first, double last, int n);
 /// With per-sample weights a (lf.weights, alpha) every tap's w is also scaled by a:
 /// F = sum(w a L) / sum(w a), and F = 0 where no valid sample reaches.
 /// Centres: s_c = (S - 1) / 2, t_c = (T - 1) / 2 (fractional for even view counts).
-void renderFocalSlice(const LightField& lf, double slope, cv::Mat& slice);
-
-/// renderFocalSlice for several slopes in one pass over the light field (rows in
-/// parallel), each slice identical to its own renderFocalSlice: the pass is bound by
-/// reading the views, which this does once for all the slopes.
+/// All the slopes share one pass over the light field (rows in parallel), which is
+/// what bounds the shift-and-sum; each slice is the same whatever slopes it is
+/// rendered with.
 void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
                        const std::vector<cv::Mat*>& slices);
 

@@ -366,17 +366,8 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   const bool wantDescriptors = descriptorsOut.needed();
 
   // Memory check before the grey conversion, the largest single allocation.
-  detail::MemoryEstimate need;
+  detail::MemoryEstimate need = detail::sliceMemory(lf.viewSize(), nOctaveLayers_, octaves);
   need.lightFieldBytes = detail::conversionBytes(input, lf);
-  if (octaves >= 1) {
-    const cv::Size view = lf.viewSize();
-    const double full = detail::scaleSpaceBytes(view, nOctaveLayers_, octaves, false);
-    need.windowSliceBytes = detail::scaleSpaceBytes(view, nOctaveLayers_, octaves, true);
-    // The rest of a full pyramid and the 2x upsampled base.
-    need.buildBytes = full - need.windowSliceBytes + 4.0 * view.area() * sizeof(float);
-    need.focalSliceBytes = double(view.area()) * sizeof(float);
-    need.slicesPerPass = detail::kSlicesPerPass;
-  }
   const int batch = sliceBatch(lf, need, memoryLimitMB_);
   detail::convertLightField(input, lf);
   std::map<int, std::shared_ptr<ScaleSpace>> window;

@@ -128,10 +128,21 @@ LightField checkLightField(const cv::Mat& input) {
   return lf;
 }
 
+namespace {
+
+// Whether the grey light field is the input's own data: one float channel, continuous
+// (a 4-D input that is not is first copied into a continuous one, then used as is).
+bool usedAsIs(const cv::Mat& input) {
+  return input.channels() == 1 && input.depth() == CV_32F &&
+         (input.isContinuous() || input.dims == 4);
+}
+
+}  // namespace
+
 double conversionBytes(const cv::Mat& input, const LightField& lf) {
   const double samples = double(lf.T) * lf.S * lf.V * lf.U;
   const int channels = input.channels();
-  const bool inPlace = channels == 1 && input.depth() == CV_32F && input.isContinuous();
+  const bool inPlace = usedAsIs(input);
   const bool copied = input.dims == 4 && !input.isContinuous();  // made continuous first
   const double converted = inPlace ? 0 : samples * sizeof(float) * (channels % 2 == 0 ? 2 : 1);
   return converted + (copied ? samples * double(input.elemSize()) : 0);
@@ -152,7 +163,7 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
   }
 
   cv::Mat grey, weights;
-  if (channels == 1 && depth == CV_32F && rows2d.isContinuous()) {
+  if (usedAsIs(input)) {
     grey = rows2d;  // no copy: we never write to it
   } else {
     // Convert view by view, so a colour or integer light field never exists as a

@@ -1,5 +1,8 @@
 #include "memory.hpp"
 
+#include "focal_stack.hpp"
+#include "scale_space.hpp"
+
 #include <algorithm>
 #include <fstream>
 #include <limits>
@@ -66,15 +69,38 @@ double cgroupRoom() {
 
 }  // namespace
 
+namespace {
+
+// Size of the first octave's images: the view upsampled as buildScaleSpace does.
+cv::Size firstOctaveSize(cv::Size viewSize) {
+  const int upsample = 1 << -kFirstOctave;
+  return cv::Size(viewSize.width * upsample, viewSize.height * upsample);
+}
+
+}  // namespace
+
 double scaleSpaceBytes(cv::Size viewSize, int layers, int octaves, bool detectionOnly) {
   const int gaussians = detectionOnly ? layers : layers + 3, dogs = layers + 2;
   double pixels = 0;
-  cv::Size size(viewSize.width * 2, viewSize.height * 2);  // octave -1
+  cv::Size size = firstOctaveSize(viewSize);
   for (int o = 0; o < octaves; ++o) {
     pixels += double(size.width) * size.height;
     size = cv::Size(std::max(1, size.width / 2), std::max(1, size.height / 2));
   }
   return pixels * (gaussians + dogs) * sizeof(float);
+}
+
+MemoryEstimate sliceMemory(cv::Size viewSize, int layers, int octaves) {
+  MemoryEstimate need;
+  if (octaves < 1) return need;
+  const double full = scaleSpaceBytes(viewSize, layers, octaves, false);
+  need.windowSliceBytes = scaleSpaceBytes(viewSize, layers, octaves, true);
+  // The rest of a full pyramid (the build scratch) and the upsampled base.
+  need.buildBytes =
+      full - need.windowSliceBytes + double(firstOctaveSize(viewSize).area()) * sizeof(float);
+  need.focalSliceBytes = double(viewSize.area()) * sizeof(float);
+  need.slicesPerPass = kSlicesPerPass;
+  return need;
 }
 
 double availableMemoryBytes() {

@@ -9,10 +9,10 @@
 namespace liff {
 namespace detail {
 
-/// Bytes of one slice's Gaussian and DoG pyramids (CV_32F, octave -1 upsampled 2x):
-/// per octave o the images are (2U / 2^o) x (2V / 2^o); a full pyramid holds
-/// layers + 3 Gaussians and layers + 2 DoGs per octave, a detection-only one keeps
-/// `layers` Gaussians.
+/// Bytes of one slice's Gaussian and DoG pyramids (CV_32F, the first octave
+/// upsampled 2^-kFirstOctave times): per octave the images halve; a full pyramid
+/// holds layers + 3 Gaussians and layers + 2 DoGs per octave, a detection-only one
+/// keeps `layers` Gaussians.
 double scaleSpaceBytes(cv::Size viewSize, int layers, int octaves, bool detectionOnly);
 
 /// Peak bytes of detectAndCompute beyond the caller's input, for `batch` slices
@@ -34,6 +34,10 @@ struct MemoryEstimate {
            slicesAhead(batch) * focalSliceBytes;
   }
 };
+
+/// The estimate's per-slice parts for views of `viewSize` (lightFieldBytes left 0):
+/// what buildScaleSpace, the slice pool and the focal slices rendered ahead hold.
+MemoryEstimate sliceMemory(cv::Size viewSize, int layers, int octaves);
 
 /// Physical memory this process can still use, in bytes: on Linux MemAvailable from
 /// /proc/meminfo, capped by the cgroup (v2 or v1) limit minus current usage; 0 when

@@ -181,15 +181,17 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
           src.convertTo(dst, CV_32F, scale);
           continue;
         }
-        src.convertTo(converted, CV_32F, scale);
+        // Float input is read where it is; other depths are converted view by view.
+        if (depth != CV_32F) src.convertTo(converted, CV_32F, scale);
+        const cv::Mat& colour = depth == CV_32F ? src : converted;
         // Luminance of BGR (ITU-R BT.601, as cv::COLOR_BGR2GRAY), computed in float;
         // the alpha channel (last) is the sample's weight.
-        if (channels == 2) cv::extractChannel(converted, dst, 0);
-        if (channels == 3) cv::cvtColor(converted, dst, cv::COLOR_BGR2GRAY);
-        if (channels == 4) cv::cvtColor(converted, dst, cv::COLOR_BGRA2GRAY);
+        if (channels == 2) cv::extractChannel(colour, dst, 0);
+        if (channels == 3) cv::cvtColor(colour, dst, cv::COLOR_BGR2GRAY);
+        if (channels == 4) cv::cvtColor(colour, dst, cv::COLOR_BGRA2GRAY);
         if (hasAlpha) {
           cv::Mat alpha = weights.rowRange(rows);
-          cv::extractChannel(converted, alpha, channels - 1);
+          cv::extractChannel(colour, alpha, channels - 1);
         }
       }
     });

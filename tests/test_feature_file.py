@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import re
+import zipfile
+
 import cv2
 import numpy as np
 import pytest
@@ -65,3 +68,102 @@ def test_ratio_test_and_translation_homography(texture_image):
         ratio_matches(desc_a, desc_b, 1.5)
     with pytest.raises(ValueError, match="homography"):
         verify(kps_a, kps_b, matches, "affine")
+
+
+def small_features(n=3):
+    kps = tuple(cv2.KeyPoint(10.0 + i, 20.5, 3.0, 45.0, 0.01, 255 + i, (i - 1) * 4096)
+                for i in range(n))
+    return Features(kps, np.arange(n * 128, dtype=np.float32).reshape(n, 128))
+
+
+@pytest.mark.parametrize("descriptors, expected", [
+    (np.zeros((3, 64), np.float32), r"shape \(3, 64\) and dtype float32; expected an \(N, 128\)"),
+    (np.zeros(384, np.float32), r"shape \(384,\)"),
+    (np.zeros((3, 128, 1), np.uint8), r"shape \(3, 128, 1\)"),
+    (np.full((3, 128), "a"), r"dtype <U1; expected an \(N, 128\) array of numbers"),
+])
+def test_save_refuses_descriptors_that_are_not_n_by_128(tmp_path, descriptors, expected):
+    features = Features(small_features().keypoints, descriptors)
+    with pytest.raises(ValueError, match=r"x\.npz: descriptors of .*" + expected):
+        save_features(tmp_path / "x.npz", features)
+    assert not (tmp_path / "x.npz").exists()
+
+
+def test_save_refuses_items_that_are_not_keypoints(tmp_path):
+    keypoints = small_features().keypoints + ((1.0, 2.0),)
+    with pytest.raises(ValueError, match=r"x\.npz: keypoints\[3\] is tuple; expected cv2\.KeyPoint"):
+        save_features(tmp_path / "x.npz", Features(keypoints, np.zeros((4, 128), np.float32)))
+    assert not (tmp_path / "x.npz").exists()
+
+
+def test_round_trip_of_hand_made_keypoints(tmp_path):
+    features = small_features()
+    save_features(tmp_path / "f.npz", features)
+    with np.load(tmp_path / "f.npz") as data:
+        assert data["keypoints"].shape == (3, 6) and data["keypoints"].dtype == np.float64
+        np.testing.assert_array_equal(data["slopes"], [-1 / 16, 0, 1 / 16])
+    back = load_features(tmp_path / "f.npz")
+    fields = [(k.pt, k.size, k.angle, k.response, k.octave, k.class_id) for k in back.keypoints]
+    assert fields == [(k.pt, k.size, k.angle, k.response, k.octave, k.class_id)
+                      for k in features.keypoints]
+    np.testing.assert_array_equal(back.slopes, [-1 / 16, 0, 1 / 16])
+
+
+def damaged_file(tmp_path, **changes):
+    """A valid feature file with arrays replaced (None removes one)."""
+    arrays = dict(keypoints=np.tile([10.0, 20.0, 3.0, 45.0, 0.01, 255.0], (3, 1)),
+                  slopes=np.zeros(3), descriptors=np.zeros((3, 128), np.float32),
+                  centre_view=np.zeros((4, 5, 3), np.uint8), meta=np.array("{}"))
+    arrays.update(changes)
+    path = tmp_path / "damaged.npz"
+    np.savez(path, **{k: v for k, v in arrays.items() if v is not None})
+    return path
+
+
+def with_nan(shape, index, value=np.nan):
+    array = np.zeros(shape)
+    array[index] = value
+    return array
+
+
+@pytest.mark.parametrize("changes, expected", [
+    (dict(keypoints=with_nan((3, 6), (1, 0))), "keypoints holds NaN or infinity"),
+    (dict(keypoints=with_nan((3, 6), (2, 5), np.inf)), "keypoints holds NaN or infinity"),
+    (dict(slopes=with_nan(3, 0, -np.inf)), "slopes holds NaN or infinity"),
+    (dict(descriptors=with_nan((3, 128), (0, 5))), "descriptors holds NaN or infinity"),
+    (dict(descriptors=np.full((3, 128), "x")), "descriptors has dtype <U1, not numbers"),
+    (dict(keypoints=np.full((3, 6), b"1")), r"keypoints has dtype \|S1, not numbers"),
+    (dict(slopes=np.ones(3, np.complex128)), "slopes has dtype complex128, not numbers"),
+    (dict(keypoints=with_nan((3, 6), (0, 5), 2.0 ** 40)), r"octaves span 0 \.\. 1\.09951e\+12, beyond int32"),
+    (dict(keypoints=with_nan((3, 6), (0, 5), -2.0 ** 31 - 1)), r"octaves span -2\.14748e\+09 .*beyond int32"),
+    (dict(slopes=with_nan(3, 0, 1e6)), r"slopes span 0 \.\. 1e\+06; expected \|slope\| < 32768"),
+    (dict(keypoints=with_nan((3, 6), (0, 2), 1e300)), r"keypoints hold 1e\+300, beyond float32"),
+    (dict(meta=np.array("[1, 2]")), "meta is list, not a JSON object"),
+    (dict(centre_view=np.zeros((4, 5), np.float64)), "centre_view is ndarray float64 .*not a uint8 image"),
+])
+def test_damaged_arrays_are_named(tmp_path, changes, expected):
+    path = damaged_file(tmp_path, **changes)
+    with pytest.raises(ValueError, match=expected + r".*; expected a liff feature file") as info:
+        load_features(path)
+    assert str(path) in str(info.value)
+
+
+def test_member_that_is_not_npy_is_named(tmp_path):
+    """np.load returns the raw bytes of a zip member that is not a .npy file."""
+    path = damaged_file(tmp_path)
+    assert len(load_features(path).keypoints) == 3
+    rebuilt = tmp_path / "bytes.npz"
+    with zipfile.ZipFile(path) as old, zipfile.ZipFile(rebuilt, "w") as new:
+        for name in old.namelist():
+            new.writestr(name, b"not an array" if name == "slopes.npy" else old.read(name))
+    with pytest.raises(ValueError, match=rf"{re.escape(str(rebuilt))}: slopes is bytes, not an array"):
+        load_features(rebuilt)
+
+
+def test_largest_valid_values_still_load(tmp_path):
+    octave = 2.0 ** 31 - 1
+    path = damaged_file(tmp_path, keypoints=np.tile([1e38, -1e38, 3.0, 45.0, 0.01, octave], (3, 1)),
+                        slopes=np.array([-32768.0, 0.0, 32767.99]))
+    back = load_features(path)
+    assert back.keypoints[0].octave == 2 ** 31 - 1
+    assert [k.class_id for k in back.keypoints] == [-2 ** 31, 0, round(32767.99 * 65536)]

@@ -393,3 +393,154 @@ def test_cotton_through_read_light_field():
     assert result.format == "hci" and result.light_field.shape == (9, 9, 512, 512, 3)
     assert (result.metadata["disp_min"], result.metadata["disp_max"]) == (-1.6, 1.5)
     assert result.gt_disparity.shape == (512, 512)
+
+
+# ---------------------------------------------------------------- review findings
+
+@pytest.mark.parametrize("dtype", [np.int8, np.int16, np.int32])
+def test_images_of_signed_dtypes_are_refused_naming_the_file(tmp_path, dtype):
+    """OpenCV reads some TIFFs as int8/16/32, which liff does not accept."""
+    image = (np.arange(8 * 8).reshape(8, 8) - 20).astype(dtype)
+    for name in ("v_0_0.tif", "v_0_1.tif"):
+        assert cv2.imwrite(str(tmp_path / name), image)
+    assert cv2.imread(str(tmp_path / "v_0_0.tif"), cv2.IMREAD_UNCHANGED).dtype == dtype
+    expected = rf"dtype {np.dtype(dtype)}; expected uint8, uint16, float32 or float64"
+    raises_naming(tmp_path / "v_0_0.tif", expected, io.read_views, tmp_path)
+    raises_naming(tmp_path / "v_0_0.tif", expected, io.read_mosaic, tmp_path / "v_0_0.tif", (2, 2))
+    raises_naming(tmp_path / "v_0_0.tif", expected, io.read_eslf, tmp_path / "v_0_0.tif", n=2)
+
+
+def test_float64_images_are_still_read(tmp_path):
+    image = np.linspace(0, 1, 8 * 8).reshape(8, 8)
+    cv2.imwrite(str(tmp_path / "m.tif"), image)
+    result = io.read_mosaic(tmp_path / "m.tif", grid=(2, 2))
+    assert result.light_field.dtype == np.float64
+    np.testing.assert_array_equal(result.light_field[1, 0], image[4:, :4])
+
+
+@pytest.mark.parametrize("grid, expected", [
+    ((2.9, 2), r"grid \(2\.9, 2\): T = 2\.9; expected positive whole view counts"),
+    ((2, 0.5), r"S = 0\.5; expected positive whole view counts"),
+    ((2, float("inf")), r"S = inf; expected positive whole view counts"),
+    ((float("nan"), 2), r"T = nan; expected positive whole view counts"),
+    ((True, 2), r"T = True; expected positive whole view counts"),
+    (("2", 2), r"T = '2'; expected positive whole view counts"),
+    ((2, -1), r"S = -1; expected positive whole view counts"),
+])
+def test_grid_must_be_whole_numbers(tmp_path, grid, expected):
+    lf = coded_lf((2, 2, 4, 4))
+    io.write_mosaic(tmp_path / "m.png", lf)
+    raises_naming(tmp_path / "m.png", expected, io.read_mosaic, tmp_path / "m.png", grid)
+    io.write_views(tmp_path / "v", lf)
+    raises_naming(tmp_path / "v", expected, io.read_views, tmp_path / "v", grid=grid)
+    # whole numbers of any type are fine
+    for whole in [(2.0, 2), (np.int64(2), np.float32(2)), np.array([2, 2])]:
+        np.testing.assert_array_equal(io.read_mosaic(tmp_path / "m.png", whole).light_field, lf)
+        np.testing.assert_array_equal(io.read_views(tmp_path / "v", grid=whole).light_field, lf)
+
+
+@pytest.mark.parametrize("keep, expected", [
+    (2.5, r"keep \(2\.5, 2\.5\): T = 2\.5; expected positive whole view counts"),
+    (float("inf"), r"keep \(inf, inf\): T = inf; expected positive"),
+    ((3, float("nan")), r"keep \(3, nan\): S = nan; expected positive"),
+    (0, r"keep \(0, 0\): T = 0; expected positive"),
+    ((3,), r"keep \(3,\); expected two view counts"),
+])
+def test_keep_must_be_whole_numbers(tmp_path, keep, expected):
+    lf = coded_lf((5, 5, 2, 2))
+    with pytest.raises(ValueError, match=r"^centre_views: " + expected):
+        io.centre_views(lf, keep)
+    io.write_eslf(tmp_path / "e.png", lf)
+    raises_naming(tmp_path / "e.png", expected, io.read_eslf, tmp_path / "e.png", n=5, keep=keep)
+    np.testing.assert_array_equal(io.centre_views(lf, 3.0), lf[1:4, 1:4])
+    np.testing.assert_array_equal(io.read_eslf(tmp_path / "e.png", n=5, keep=(3.0, np.int8(2))).light_field,
+                                  lf[1:4, 1:3])
+
+
+def test_lenslet_size_follows_the_same_rule(tmp_path):
+    lf = coded_lf((3, 3, 4, 5, 3))
+    for bad in (2.5, float("inf"), float("nan"), True, None, "4"):
+        raises_naming(tmp_path / "e.png", rf"lenslet size n = {re.escape(repr(bad))}; expected an "
+                      r"integer >= 1", io.read_eslf, tmp_path / "e.png", n=bad)
+    raises_naming(tmp_path / "x.png", r"n = 2\.0; expected an integer >= 3",
+                  io.write_eslf, tmp_path / "x.png", lf, n=2.0)
+    raises_naming(tmp_path / "x.png", r"n = 4\.5; expected an integer >= 3",
+                  io.write_eslf, tmp_path / "x.png", lf, n=4.5)
+    io.write_eslf(tmp_path / "e.png", lf, n=4.0)  # a whole float is fine
+    result = io.read_eslf(tmp_path / "e.png", n=np.float64(4), keep=3)
+    assert result.metadata["lenslet_size"] == 4 and type(result.metadata["lenslet_size"]) is int
+    np.testing.assert_array_equal(result.light_field, lf)
+
+
+def test_positive_int_helper():
+    from liff.io._shared import positive_int
+
+    assert positive_int(3, "n", "src") == 3 and type(positive_int(3.0, "n", "src")) is int
+    assert positive_int(np.uint8(5), "n", "src", 5) == 5
+    assert positive_int(10 ** 30, "n", "src") == 10 ** 30
+    for bad in (4, 5.5, float("-inf"), np.nan, np.True_, "7", [7], 1j):
+        with pytest.raises(ValueError, match=r"^src: n = .*; expected an integer >= 5$"):
+            positive_int(bad, "n", "src", 5)
+
+
+def write_hci(folder: Path, shape=(2, 2, 4, 5)):
+    T, S, V, U = shape
+    folder.mkdir()
+    for index in range(T * S):
+        cv2.imwrite(str(folder / f"input_Cam{index:03d}.png"), np.full((V, U, 3), index, np.uint8))
+    (folder / "parameters.cfg").write_text(f"[extrinsics]\nnum_cams_x = {S}\nnum_cams_y = {T}\n")
+
+
+def test_hci_colour_disparity_is_named_as_such(tmp_path):
+    write_hci(tmp_path / "s")
+    io.write_pfm(tmp_path / "s" / "gt_disp_lowres.pfm", np.zeros((4, 5, 3), np.float32))
+    message = raises_naming(tmp_path / "s" / "gt_disp_lowres.pfm",
+                            r"colour \(PF\) PFM of shape \(4, 5, 3\); expected a grey Pf disparity "
+                            r"map of the views' size 5x4", io.read_hci, tmp_path / "s")
+    assert "differs" not in message
+    io.write_pfm(tmp_path / "s" / "gt_disp_lowres.pfm", np.zeros((4, 6), np.float32))
+    raises_naming(tmp_path / "s" / "gt_disp_lowres.pfm", r"size 6x4 differs from the views' 5x4",
+                  io.read_hci, tmp_path / "s")
+    io.write_pfm(tmp_path / "s" / "gt_disp_lowres.pfm", np.ones((4, 5), np.float32))
+    assert io.read_hci(tmp_path / "s").gt_disparity.shape == (4, 5)
+
+
+def test_hci_missing_views_message(tmp_path):
+    write_hci(tmp_path / "s", (3, 3, 4, 4))
+    for index in (1, 2, 3, 4, 5, 7):
+        (tmp_path / "s" / f"input_Cam{index:03d}.png").unlink()
+    raises_naming(tmp_path / "s", r"views missing for a 3x3 grid: input_Cam001\.png, "
+                  r"input_Cam002\.png, input_Cam003\.png, input_Cam004\.png, input_Cam005\.png "
+                  r"\.\.\.$", io.read_hci, tmp_path / "s")
+    (tmp_path / "s" / "input_Cam001.png").write_bytes((tmp_path / "s" / "input_Cam000.png").read_bytes())
+    raises_naming(tmp_path / "s", r"grid: input_Cam002\.png, input_Cam003\.png, input_Cam004\.png, "
+                  r"input_Cam005\.png, input_Cam007\.png$", io.read_hci, tmp_path / "s")
+    assert io.guess_format(tmp_path / "s") == "hci"
+
+
+@pytest.mark.parametrize("disparity", [np.full((3, 3), "1.5"), np.ones((3, 3), np.complex64),
+                                       np.zeros((3, 3), "V4")])
+def test_npz_disparity_must_be_real_numbers(tmp_path, disparity):
+    np.savez(tmp_path / "d.npz", light_field=np.zeros((2, 2, 3, 3)), gt_disparity=disparity)
+    raises_naming(tmp_path / "d.npz", rf"'gt_disparity'\]: dtype {disparity.dtype}; expected real "
+                  r"numbers", io.read_numpy, tmp_path / "d.npz")
+
+
+@pytest.mark.parametrize("dtype", [">f4", ">f8", ">u2", "<u2", ">i2"])
+def test_non_native_byte_order_is_read_as_native(tmp_path, dtype):
+    native = np.dtype(dtype).newbyteorder("=")
+    lf = coded_lf((2, 2, 3, 4, 3), np.uint16).astype(dtype)
+    np.save(tmp_path / "a.npy", lf)
+    np.savez(tmp_path / "b.npz", light_field=lf, gt_disparity=np.ones((3, 4), ">f8"))
+    if native not in (np.uint16, np.float32, np.float64):
+        raises_naming(tmp_path / "a.npy", rf"dtype {native}; expected uint8, uint16",
+                      io.read_light_field, tmp_path / "a.npy")
+        return
+    for path in (tmp_path / "a.npy", tmp_path / "b.npz"):
+        result = io.read_light_field(path)
+        assert result.light_field.dtype == native and result.light_field.dtype.isnative
+        np.testing.assert_array_equal(result.light_field, lf)
+    assert io.read_numpy(tmp_path / "b.npz").gt_disparity.dtype == np.float32
+    if native == np.uint16:  # writable as images once in native order
+        io.write_mosaic(tmp_path / "m.png", lf)
+        np.testing.assert_array_equal(io.read_mosaic(tmp_path / "m.png", (2, 2)).light_field, lf)

@@ -201,3 +201,78 @@ def test_errors_state_the_expectation(call, expected):
 def test_constant_light_field_is_returned_as_float():
     lf = np.full((2, 2, 4, 4), 128, np.uint8)
     np.testing.assert_array_equal(preprocess.equalize(lf), np.float32(128 / 255))
+
+
+@pytest.mark.parametrize("call, expected", [
+    (lambda: preprocess.equalize(np.zeros((2, 2)), bins="a"), r"bins = 'a'; expected an integer >= 2"),
+    (lambda: preprocess.equalize(np.zeros((2, 2)), bins=2.5), r"bins = 2\.5; expected an integer"),
+    (lambda: preprocess.equalize(np.zeros((2, 2)), bins=np.inf), r"bins = inf; expected an integer"),
+    (lambda: preprocess.equalize(np.zeros((2, 2)), bins=np.nan), r"bins = nan; expected an integer"),
+    (lambda: preprocess.equalize(np.zeros((2, 2)), cutoff_percent=None),
+     r"cutoff_percent = None; expected a value in \[0, 50\)"),
+    (lambda: preprocess.equalize(np.zeros((2, 2)), cutoff_percent="1"), r"cutoff_percent = '1'"),
+    (lambda: preprocess.equalize(np.zeros((2, 2)), cutoff_percent=np.nan), r"cutoff_percent = nan"),
+    (lambda: preprocess.equalize(np.zeros((2, 2)), method=["cdf"]), r"method = \['cdf'\]; expected"),
+    (lambda: preprocess.apply_gamma(np.zeros((2, 2)), "0.5"), r"gamma = '0\.5'; expected a finite number"),
+    (lambda: preprocess.apply_gamma(np.zeros((2, 2)), np.inf), r"gamma = inf; expected a finite number"),
+    (lambda: preprocess.prepare(np.zeros((2, 2)), gamma="0.5"), r"gamma = '0\.5'; expected a finite"),
+    (lambda: preprocess.prepare(np.zeros((2, 2)), gamma=-1), r"gamma = -1; expected a finite number > 0"),
+    (lambda: preprocess.prepare(np.zeros((2, 2)), equalize="clahe"),
+     r"equalize = 'clahe'; expected True, False, 'stretch' or 'cdf'"),
+    (lambda: preprocess.prepare(np.zeros((2, 2)), equalize=2), r"equalize = 2; expected True"),
+])
+def test_bad_options_name_the_parameter(call, expected):
+    with pytest.raises(ValueError, match=expected):
+        call()
+
+
+def test_prepare_checks_its_options_before_any_work():
+    """The options are checked before the light field is converted: with both wrong,
+    the option is what is reported."""
+    not_a_light_field = np.zeros(5)
+    with pytest.raises(ValueError, match="gamma = '0.5'"):
+        preprocess.prepare(not_a_light_field, gamma="0.5")
+    with pytest.raises(ValueError, match="equalize = 'flat'"):
+        preprocess.prepare(not_a_light_field, equalize="flat")
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+@pytest.mark.parametrize("shape", [(3, 4, 9, 10, 3), (3, 4, 9, 10, 4), (9, 10), (9, 10, 2)])
+@pytest.mark.parametrize("gamma, method", [(0.5, "stretch"), (0.3, "cdf"), (None, "stretch"),
+                                           (1, "cdf"), (2.0, None)])
+def test_prepare_is_the_public_steps_bit_for_bit(dtype, shape, gamma, method):
+    """prepare works in place on one float copy; the result is exactly that of chaining
+    the public steps (which each convert again)."""
+    lf = light_field(shape, dtype, skew=2.0)
+    for luminance in (True, False):
+        expected = preprocess.to_luminance(lf) if luminance else preprocess.to_float(lf)
+        if gamma is not None and gamma != 1:
+            expected = preprocess.apply_gamma(expected, gamma)
+        if method is not None:
+            expected = preprocess.equalize(expected, method)
+        result = preprocess.prepare(lf, luminance=luminance, gamma=gamma,
+                                    equalize=method or False)
+        assert result.dtype == expected.dtype and result.shape == expected.shape
+        assert result.tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+def test_non_native_byte_order_is_accepted(dtype):
+    """np.save of a big-endian array, e.g. '>f4', gives the same result as native
+    (and '>u2' is still scaled as uint16)."""
+    lf = with_alpha(light_field((2, 3, 6, 7, 3), dtype))
+    swapped = lf.astype(lf.dtype.newbyteorder("S"))
+    assert not swapped.dtype.isnative or swapped.dtype.itemsize == 1
+    for step in (preprocess.to_float, preprocess.to_luminance, preprocess.prepare,
+                 lambda x: preprocess.equalize(x, "cdf"), lambda x: preprocess.apply_gamma(x, 0.3)):
+        expected, result = step(lf), step(swapped)
+        assert result.dtype == np.float32 and result.dtype.isnative
+        assert result.tobytes() == expected.tobytes()
+    with pytest.raises(ValueError, match=r"dtype >i4; expected uint8, uint16, float32 or float64"):
+        preprocess.to_float(np.zeros((2, 2), ">i4"))
+
+
+def test_preprocess_accepts_the_dtypes_of_liff_io():
+    from liff.io import _shared
+
+    assert preprocess.LIGHT_FIELD_DTYPES is _shared.LIGHT_FIELD_DTYPES

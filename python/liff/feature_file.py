@@ -22,11 +22,13 @@ from typing import Optional, Sequence, Tuple, Union
 import cv2
 import numpy as np
 
-from ._detector import SLOPE_SCALE, keypoint_slopes
+from ._detector import SLOPE_SCALE, _keypoints_to_rows, _rows_to_keypoints, keypoint_slopes
 from .plot import to_display
 
 PathLike = Union[str, os.PathLike]
 KEYPOINT_COLUMNS = ("x", "y", "size", "angle", "response", "octave")
+_INT32 = np.iinfo(np.int32)
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 @dataclass
@@ -58,12 +60,26 @@ def centre_view(light_field: np.ndarray) -> np.ndarray:
 
 
 def save_features(path: PathLike, features: Features) -> None:
-    """Writes ``features`` to ``path`` (.npz, compressed); see the module docstring."""
-    rows = np.array([(k.pt[0], k.pt[1], k.size, k.angle, k.response, k.octave)
-                     for k in features.keypoints], dtype=np.float64).reshape(-1, 6)
+    """Writes ``features`` to ``path`` (.npz, compressed); see the module docstring.
+
+    Raises
+    ------
+    ValueError
+        Naming the file: a keypoint that is not a cv2.KeyPoint, descriptors that are not
+        an (N, 128) array of numbers, or not one descriptor row per keypoint.
+    """
+    try:
+        rows = np.ascontiguousarray(_keypoints_to_rows(features.keypoints)[:, :6])  # no class_id
+    except TypeError as error:
+        raise ValueError(f"{os.fspath(path)}: {error}") from None
     descriptors = features.descriptors
     if descriptors is None:
         descriptors = np.zeros((0, 128), np.float32)
+    descriptors = np.asarray(descriptors)
+    if descriptors.ndim != 2 or descriptors.shape[1] != 128 or descriptors.dtype.kind not in "biuf":
+        raise ValueError(f"{os.fspath(path)}: descriptors of shape {descriptors.shape} and dtype "
+                         f"{descriptors.dtype}; expected an (N, 128) array of numbers (float32 "
+                         "or uint8), one row per keypoint")
     if len(descriptors) != len(rows):
         raise ValueError(f"{os.fspath(path)}: {len(rows)} keypoints but {len(descriptors)} "
                          "descriptors; expected one descriptor row per keypoint")
@@ -80,7 +96,9 @@ def load_features(path: PathLike) -> Features:
     Raises
     ------
     ValueError
-        Naming the file: not an npz, a missing array, or arrays of inconsistent shapes.
+        Naming the file: not an npz, a missing or damaged array (not a numeric array,
+        NaN or infinity, an octave or slope beyond what cv2.KeyPoint holds), or arrays
+        of inconsistent shapes.
     """
     path = os.fspath(path)
     try:
@@ -99,15 +117,52 @@ def load_features(path: PathLike) -> Features:
         except Exception as error:
             raise ValueError(f"{path}: damaged feature file ({type(error).__name__}: {error}); "
                              "expected one written by `liff detect`") from None
-    n = len(rows) if getattr(rows, "ndim", 0) >= 1 else -1
+    _check_arrays(path, rows, slopes, descriptors, view, meta)
+    n = len(rows)
+    # class_id: the slope packed as round(slope * SLOPE_SCALE), as the detector does
+    class_ids = np.round(slopes.astype(np.float64) * SLOPE_SCALE)
+    keypoints = _rows_to_keypoints(np.column_stack([rows.astype(np.float64), class_ids]))
+    return Features(keypoints, descriptors if n else None, view, meta)
+
+
+def _check_arrays(path: str, rows, slopes, descriptors, view, meta) -> None:
+    """Raises ValueError naming ``path`` unless the arrays make valid keypoints."""
+    def damaged(what: str) -> ValueError:
+        return ValueError(f"{path}: {what}; expected a liff feature file written by "
+                          "`liff detect`")
+
+    arrays = {"keypoints": rows, "slopes": slopes, "descriptors": descriptors}
+    for name, array in arrays.items():
+        if not isinstance(array, np.ndarray):  # a member that is not a .npy: bytes
+            raise damaged(f"{name} is {type(array).__name__}, not an array")
+        if array.dtype.kind not in "biuf":
+            raise damaged(f"{name} has dtype {array.dtype}, not numbers")
+    n = len(rows) if rows.ndim >= 1 else -1
     if n < 0 or rows.ndim != 2 or rows.shape[1] != 6 or slopes.shape != (n,) or descriptors.shape != (n, 128):
         raise ValueError(f"{path}: keypoints {rows.shape}, slopes {slopes.shape}, descriptors "
                          f"{descriptors.shape}; expected (N, 6), (N,) and (N, 128)")
-    keypoints = tuple(
-        cv2.KeyPoint(float(x), float(y), float(size), float(angle), float(response), int(octave),
-                     int(round(slope * SLOPE_SCALE)))
-        for (x, y, size, angle, response, octave), slope in zip(rows.tolist(), slopes.tolist()))
-    return Features(keypoints, descriptors if n else None, view, meta)
+    for name, array in arrays.items():
+        if not np.isfinite(array).all():
+            raise damaged(f"{name} holds NaN or infinity")
+    if n:
+        # cv2.KeyPoint holds x, y, size, angle, response as float32, octave and class_id
+        # (round(slope * SLOPE_SCALE)) as int32
+        values = np.abs(rows[:, :5].astype(np.float64))
+        if values.max() > _FLOAT32_MAX:
+            raise damaged(f"keypoints hold {values.max():g}, beyond float32")
+        octave = np.trunc(rows[:, 5].astype(np.float64))  # int(octave) truncates
+        if octave.min() < _INT32.min or octave.max() > _INT32.max:
+            raise damaged(f"keypoint octaves span {octave.min():g} .. {octave.max():g}, beyond int32")
+        class_ids = np.round(slopes.astype(np.float64) * SLOPE_SCALE)
+        if class_ids.min() < _INT32.min or class_ids.max() > _INT32.max:
+            raise damaged(f"slopes span {slopes.min():g} .. {slopes.max():g}; expected "
+                          f"|slope| < {(_INT32.max + 1) / SLOPE_SCALE:g} (int32 class_id)")
+    if view is not None and not (isinstance(view, np.ndarray) and view.dtype == np.uint8
+                                 and view.ndim in (2, 3) and 0 not in view.shape):
+        raise damaged(f"centre_view is {type(view).__name__} {getattr(view, 'dtype', '')} "
+                      f"{getattr(view, 'shape', '')}, not a uint8 image")
+    if not isinstance(meta, dict):
+        raise damaged(f"meta is {type(meta).__name__}, not a JSON object")
 
 
 def features_from_light_field(detector, light_field: np.ndarray, mask=None,

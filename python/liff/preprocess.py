@@ -8,7 +8,8 @@ available on its own (:func:`to_float`, :func:`to_luminance`, :func:`apply_gamma
 Every function takes a light field (T, S, V, U[, C]) or an image (V, U[, C]) (a channel
 axis exists when ``ndim`` is 3 or 5), of dtype uint8, uint16, float32 or float64, and
 returns a new float32 array with intensities in [0, 1]: uint8 is divided by 255,
-uint16 by 65535, floats are clipped to [0, 1]. The input is never modified.
+uint16 by 65535, floats are clipped to [0, 1]. Any byte order is accepted (a big-endian
+``'>u2'`` array is uint16). The input is never modified.
 
 A 2nd channel (grey + weight) or 4th channel (BGRA) is the per-sample weight / alpha
 (docs/INPUTS.md). It is carried through every step unchanged apart from the same
@@ -18,9 +19,13 @@ sample by its weight, so invalid (weight 0) samples do not shape the mapping.
 
 from __future__ import annotations
 
-from typing import Tuple, Union
+import math
+import numbers
+from typing import Optional, Tuple, Union
 
 import numpy as np
+
+from .io._shared import LIGHT_FIELD_DTYPES
 
 __all__ = ["to_float", "to_luminance", "apply_gamma", "equalize", "prepare"]
 
@@ -29,6 +34,12 @@ BGR_LUMINANCE = (0.114, 0.587, 0.299)
 _SCALE = {np.dtype(np.uint8): 255.0, np.dtype(np.uint16): 65535.0}
 #: bins of the equalisation histogram over [0, 1] (the LiFF authors' LiFF_HistEqualize: 2^16)
 HISTOGRAM_BINS = 65536
+_METHODS = ("stretch", "cdf")
+
+
+def _native(dtype: np.dtype) -> np.dtype:
+    """``dtype`` in native byte order ('>u2' -> uint16), for the dtype checks and scales."""
+    return dtype.newbyteorder("=")
 
 
 def _channel_layout(array: np.ndarray) -> Tuple[int, bool]:
@@ -36,7 +47,7 @@ def _channel_layout(array: np.ndarray) -> Tuple[int, bool]:
     if array.ndim not in (2, 3, 4, 5) or 0 in array.shape:
         raise ValueError(f"array has shape {array.shape}; expected a light field (T, S, V, U[, C]) "
                          f"or an image (V, U[, C])")
-    if array.dtype not in (np.uint8, np.uint16, np.float32, np.float64):
+    if _native(array.dtype) not in LIGHT_FIELD_DTYPES:
         raise ValueError(f"array has dtype {array.dtype}; expected uint8, uint16, float32 or "
                          f"float64")
     channels = array.shape[-1] if array.ndim in (3, 5) else 1
@@ -75,9 +86,11 @@ def to_float(light_field: np.ndarray) -> np.ndarray:
     """
     array = np.asarray(light_field)
     _, weighted = _channel_layout(array)
-    scale = _SCALE.get(array.dtype)
+    scale = _SCALE.get(_native(array.dtype))  # astype below also converts the byte order
     if scale is not None:
-        return array.astype(np.float32) / np.float32(scale)
+        result = array.astype(np.float32)
+        result /= np.float32(scale)
+        return result
     if not np.isfinite(array).all():
         raise ValueError("array holds NaN or infinity; expected finite values in [0, 1]")
     result = array.astype(np.float32)  # always a copy: the input stays as it is
@@ -117,9 +130,21 @@ def apply_gamma(light_field: np.ndarray, gamma: float = 0.5) -> np.ndarray:
     ValueError
         If ``gamma`` is not a finite number > 0.
     """
-    if not (np.isfinite(gamma) and gamma > 0):
+    _check_gamma(gamma)
+    return _apply_gamma(to_float(light_field), gamma)
+
+
+def _check_gamma(gamma) -> None:
+    try:
+        valid = isinstance(gamma, numbers.Real) and math.isfinite(gamma) and gamma > 0
+    except OverflowError:  # an int beyond float
+        valid = False
+    if not valid:
         raise ValueError(f"gamma = {gamma!r}; expected a finite number > 0")
-    result = to_float(light_field)
+
+
+def _apply_gamma(result: np.ndarray, gamma: float) -> np.ndarray:
+    """:func:`apply_gamma` in place on ``result``, float32 in [0, 1] as from :func:`to_float`."""
     intensity, _ = _split(result)
     np.power(intensity, np.float32(gamma), out=intensity)
     return result
@@ -175,24 +200,41 @@ def equalize(light_field: np.ndarray, method: str = "stretch", cutoff_percent: f
     Raises
     ------
     ValueError
-        For an unknown method, a cutoff outside [0, 50), ``bins`` < 2, or a weight
-        channel that is zero everywhere.
+        For an unknown method, a cutoff that is not a number in [0, 50), ``bins`` not
+        a whole number >= 2, or a weight channel that is zero everywhere.
     """
-    if method not in ("stretch", "cdf"):
+    bins = _check_equalize(method, cutoff_percent, bins)
+    return _equalize(to_float(light_field), method, cutoff_percent, bins)
+
+
+def _check_equalize(method, cutoff_percent, bins) -> int:
+    """Raises ValueError for bad :func:`equalize` options; returns ``bins`` as an int."""
+    if not (isinstance(method, str) and method in _METHODS):
         raise ValueError(f"method = {method!r}; expected 'stretch' or 'cdf'")
-    if not 0 <= cutoff_percent < 50:
+    if not (isinstance(cutoff_percent, numbers.Real) and 0 <= cutoff_percent < 50):
         raise ValueError(f"cutoff_percent = {cutoff_percent!r}; expected a value in [0, 50)")
-    if int(bins) != bins or bins < 2:
+    whole = False
+    if isinstance(bins, numbers.Real) and not isinstance(bins, (bool, np.bool_)):
+        try:
+            whole = math.isfinite(bins) and int(bins) == bins
+        except (OverflowError, TypeError, ValueError):
+            pass
+    if not whole or bins < 2:
         raise ValueError(f"bins = {bins!r}; expected an integer >= 2")
-    result = to_float(light_field)
+    return int(bins)
+
+
+def _equalize(result: np.ndarray, method: str, cutoff_percent: float, bins: int) -> np.ndarray:
+    """:func:`equalize` in place on ``result``, float32 in [0, 1] as from :func:`to_float`;
+    the options are checked (:func:`_check_equalize`)."""
     intensity, weight = _split(result)
-    counts = _weighted_histogram(intensity, weight, int(bins))
+    counts = _weighted_histogram(intensity, weight, bins)
     total = counts.sum()
     if total <= 0:
         raise ValueError("the weight channel is zero everywhere; expected some samples with "
                          "weight > 0 to build the histogram from")
     cdf = np.concatenate([[0.0], np.cumsum(counts) / total])  # at the bin edges
-    edges = np.linspace(0.0, 1.0, int(bins) + 1)
+    edges = np.linspace(0.0, 1.0, bins + 1)
     if method == "cdf":
         for i in range(intensity.shape[0]):  # np.interp works in float64: a part at a time
             intensity[i] = np.interp(intensity[i], edges, cdf)
@@ -237,18 +279,37 @@ def prepare(light_field: np.ndarray, luminance: bool = True, gamma: float = 0.5,
         Shape as :func:`to_luminance` gives it when ``luminance``, else as the input.
         A weight channel is kept last, unchanged but for dtype scaling.
 
+    Raises
+    ------
+    ValueError
+        For a bad ``gamma`` or ``equalize`` (checked before any work) or a light field
+        liff does not accept.
+
     Notes
     -----
     "cdf" equalisation maps each intensity to its rank, so a gamma before it changes
     almost nothing (only through the histogram's binning); "stretch" is linear, so the
     gamma still shapes the result, as in the paper.
     """
+    if gamma is not None:
+        _check_gamma(gamma)
+    method = _equalize_method(equalize)
+    # One float32 copy, then every step in place on it.
     result = to_luminance(light_field) if luminance else to_float(light_field)
     if gamma is not None and gamma != 1:
-        result = apply_gamma(result, gamma)
-    if equalize:
-        result = _equalize(result, method="stretch" if equalize is True else equalize)
+        _apply_gamma(result, gamma)
+    if method is not None:
+        _equalize(result, method, 0.1, HISTOGRAM_BINS)
     return result
 
 
-_equalize = equalize  # prepare()'s parameter of the same name hides the function
+def _equalize_method(equalize) -> Optional[str]:
+    """prepare()'s ``equalize`` as a method name, or None for no equalisation."""
+    if equalize is True or (isinstance(equalize, np.bool_) and equalize):
+        return "stretch"
+    if isinstance(equalize, str):
+        if equalize in _METHODS:
+            return equalize
+    elif equalize is None or (isinstance(equalize, numbers.Number) and not equalize):
+        return None  # False, 0
+    raise ValueError(f"equalize = {equalize!r}; expected True, False, 'stretch' or 'cdf'")

@@ -5,6 +5,8 @@ Nothing here knows a particular layout; each ``liff.io`` format module builds on
 
 from __future__ import annotations
 
+import math
+import numbers
 import os
 from dataclasses import dataclass, field
 from typing import Optional, Sequence, Tuple, Union
@@ -50,7 +52,9 @@ class LightFieldFile:
 
 
 def check_light_field(array: np.ndarray, source: str) -> np.ndarray:
-    """Returns ``array`` if it is a light field liff accepts, else raises.
+    """Returns ``array`` if it is a light field liff accepts, else raises. A non-native
+    byte order (e.g. big-endian ``'>u2'``) is accepted: the result is then a copy in
+    native byte order (``'>u2'`` becomes uint16).
 
     Raises
     ------
@@ -69,21 +73,55 @@ def check_light_field(array: np.ndarray, source: str) -> np.ndarray:
     if array.ndim == 5 and array.shape[4] not in (1, 2, 3, 4):
         raise ValueError(f"{source}: array has {array.shape[4]} channels (shape {array.shape}); "
                          f"expected C in 1, 2, 3, 4")
+    array = native_byte_order(array)  # e.g. np.save of '>f4': the values, in native order
     if array.dtype not in LIGHT_FIELD_DTYPES:
         raise ValueError(f"{source}: array has dtype {array.dtype}; expected uint8, uint16, "
                          f"float32 or float64")
     return array
 
 
-def grid_size(grid, source: str) -> Tuple[int, int]:
-    """``grid`` as a pair of positive ints (T, S); raises ValueError naming ``source``."""
+def native_byte_order(array: np.ndarray) -> np.ndarray:
+    """``array`` itself, or a copy in native byte order if it is stored otherwise (a
+    big-endian ``'>f4'`` becomes float32 with the same values)."""
+    if array.dtype.isnative:
+        return array
+    return array.astype(array.dtype.newbyteorder("="))
+
+
+def positive_int(value, name: str, source: str, minimum: int = 1,
+                 expected: Optional[str] = None) -> int:
+    """``value`` as an int if it is a whole number >= ``minimum``, else a ValueError
+    ``"{source}: {name} = {value!r}; expected {expected}"``.
+
+    Whole numbers of any real type are accepted (2, 2.0, np.int64(2)); fractions (2.9),
+    NaN, infinity, bools, strings and other types are refused rather than truncated.
+    ``expected`` defaults to "an integer >= {minimum}".
+    """
+    number = None
+    if isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_)):
+        number = int(value)
+    elif isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
+        try:
+            if math.isfinite(value) and int(value) == value:
+                number = int(value)
+        except (OverflowError, TypeError, ValueError):  # e.g. a Fraction beyond float
+            pass
+    if number is None or number < minimum:
+        raise ValueError(f"{source}: {name} = {value!r}; expected "
+                         f"{expected or f'an integer >= {minimum}'}")
+    return number
+
+
+def grid_size(grid, source: str, name: str = "grid") -> Tuple[int, int]:
+    """``grid`` as a pair of positive ints (T, S); raises ValueError naming ``source``
+    (and the option ``name``) for anything but two whole numbers >= 1."""
     try:
-        rows, cols = (int(g) for g in grid)
+        rows, cols = grid
     except (TypeError, ValueError):
-        raise ValueError(f"{source}: grid {grid!r}; expected two view counts (T, S)") from None
-    if rows < 1 or cols < 1:
-        raise ValueError(f"{source}: grid {grid!r}; expected positive view counts (T, S)")
-    return rows, cols
+        raise ValueError(f"{source}: {name} {grid!r}; expected two view counts (T, S)") from None
+    expected = "positive whole view counts (T, S)"
+    return (positive_int(rows, f"{name} {grid!r}: T", source, 1, expected),
+            positive_int(cols, f"{name} {grid!r}: S", source, 1, expected))
 
 
 def centre_range(count: int, keep: int) -> slice:
@@ -109,7 +147,7 @@ def centre_views(light_field: np.ndarray, keep) -> np.ndarray:
     -------
     ndarray, shape (keep_t, keep_s, V, U[, C])
     """
-    rows, cols = grid_size((keep, keep) if np.isscalar(keep) else keep, "centre_views")
+    rows, cols = grid_size((keep, keep) if np.isscalar(keep) else keep, "centre_views", "keep")
     T, S = light_field.shape[:2]
     if rows > T or cols > S:
         raise ValueError(f"centre_views: keep {rows}x{cols} views of a {T}x{S} grid; expected "
@@ -130,12 +168,13 @@ def read_image(path: PathLike) -> np.ndarray:
     Returns
     -------
     ndarray, shape (V, U) grey, (V, U, 2) grey + alpha, (V, U, 3) BGR or (V, U, 4) BGRA,
-        dtype as stored (uint8, uint16 or float32).
+        dtype as stored (uint8, uint16, float32 or float64).
 
     Raises
     ------
     ValueError
-        If the file is missing or OpenCV cannot decode it.
+        If the file is missing, OpenCV cannot decode it, or it decodes to a dtype liff
+        does not accept (e.g. a signed-integer TIFF).
     """
     path = os.fspath(path)
     if not os.path.isfile(path):
@@ -144,6 +183,9 @@ def read_image(path: PathLike) -> np.ndarray:
     if image is None:
         raise ValueError(f"{path}: unreadable image; expected a format OpenCV decodes "
                          f"(PNG, TIFF, JPEG, ...)")
+    if image.dtype not in LIGHT_FIELD_DTYPES:  # OpenCV reads some TIFFs as int8/16/32
+        raise ValueError(f"{path}: image has dtype {image.dtype}; expected uint8, uint16, "
+                         f"float32 or float64")
     if image.ndim == 3 and image.shape[2] == 4 and _is_grey_alpha_png(path):
         image = np.ascontiguousarray(image[:, :, [0, 3]])
     return image

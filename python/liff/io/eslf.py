@@ -14,15 +14,9 @@ from typing import Optional
 import numpy as np
 
 from ._shared import (LightFieldFile, PathLike, as_image, centre_range, centre_views,
-                      check_writable, read_image, write_image)
+                      check_writable, positive_int, read_image, write_image)
 
 LYTRO_LENSLET_SIZE = 14
-
-
-def _lenslet_size(n, path: str, minimum: int) -> int:
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < minimum:
-        raise ValueError(f"{path}: lenslet size n = {n!r}; expected an integer >= {minimum}")
-    return int(n)
 
 
 def read_eslf(path: PathLike, n: int = LYTRO_LENSLET_SIZE, keep=None) -> LightFieldFile:
@@ -33,7 +27,8 @@ def read_eslf(path: PathLike, n: int = LYTRO_LENSLET_SIZE, keep=None) -> LightFi
     path : path
         The image (any format OpenCV reads; ``cv2.IMREAD_UNCHANGED``).
     n : int
-        Lenslet size in pixels (views per row and per column of the lenslet grid).
+        Lenslet size in pixels (views per row and per column of the lenslet grid); a
+        whole number (2.0 is taken as 2, 2.5 is refused).
     keep : int or (int, int), optional
         Keep only the centre ``keep`` x ``keep`` views (or keep_t x keep_s). The first
         kept view is ``(n - keep) // 2`` on each axis, so an odd number of dropped views
@@ -53,11 +48,11 @@ def read_eslf(path: PathLike, n: int = LYTRO_LENSLET_SIZE, keep=None) -> LightFi
     Raises
     ------
     ValueError
-        Naming the file: unreadable, ``n`` < 1, an image smaller than one lenslet, or
-        ``keep`` larger than ``n``.
+        Naming the file: unreadable, ``n`` or ``keep`` not a whole number >= 1, an
+        image smaller than one lenslet, or ``keep`` larger than ``n``.
     """
     path = os.fspath(path)
-    n = _lenslet_size(n, path, 1)
+    n = positive_int(n, "lenslet size n", path, 1)
     image = read_image(path)
     height, width = image.shape[:2]
     V, U = height // n, width // n
@@ -104,7 +99,7 @@ def write_eslf(path: PathLike, light_field: np.ndarray, n: Optional[int] = None)
     path = os.fspath(path)
     light_field = check_writable(light_field, path)
     T, S, V, U = light_field.shape[:4]
-    n = _lenslet_size(max(T, S) if n is None else n, path, max(T, S))
+    n = positive_int(max(T, S) if n is None else n, "lenslet size n", path, max(T, S))
     channels = light_field.shape[4:]
     lenslets = np.zeros((n, n, V, U) + channels, light_field.dtype)
     lenslets[centre_range(n, T), centre_range(n, S)] = light_field

@@ -16,6 +16,7 @@ from typing import Optional, Union
 import cv2
 import numpy as np
 
+from ._shared import describe_missing
 from .pfm import read_pfm
 
 PathLike = Union[str, os.PathLike]
@@ -53,7 +54,8 @@ def read_hci(folder: PathLike) -> HciScene:
     ------
     ValueError
         Naming the folder or file: no views, missing views, views of mixed sizes,
-        unreadable images, or a parameters.cfg whose grid disagrees with the views.
+        unreadable images, a parameters.cfg whose grid disagrees with the views, or a
+        gt_disp_lowres.pfm that is not a grey map of the views' size.
     """
     folder = os.fspath(folder)
     if not os.path.isdir(folder):
@@ -95,9 +97,8 @@ def read_hci(folder: PathLike) -> HciScene:
         T = S = n
     missing = sorted(set(range(T * S)) - set(views))
     if missing:
-        raise ValueError(f"{folder}: views missing for a {T}x{S} grid: "
-                         f"{', '.join(f'input_Cam{i:03d}.png' for i in missing[:5])}"
-                         f"{' ...' if len(missing) > 5 else ''}")
+        names = [f"input_Cam{i:03d}.png" for i in missing[:6]]  # 6: describe_missing adds ' ...'
+        raise ValueError(f"{folder}: views missing for a {T}x{S} grid: {describe_missing(names)}")
     first = None
     lf = None
     for index in range(T * S):
@@ -117,6 +118,9 @@ def read_hci(folder: PathLike) -> HciScene:
     disp_max = _number(meta["disp_max"], float, "meta disp_max", cfg_path) if "disp_max" in meta else None
     gt_path = os.path.join(folder, "gt_disp_lowres.pfm")
     gt = read_pfm(gt_path) if os.path.isfile(gt_path) else None
+    if gt is not None and gt.ndim != 2:
+        raise ValueError(f"{gt_path}: colour (PF) PFM of shape {gt.shape}; expected a grey Pf "
+                         f"disparity map of the views' size {first[1]}x{first[0]}")
     if gt is not None and gt.shape != first[:2]:
         raise ValueError(f"{gt_path}: size {gt.shape[1]}x{gt.shape[0]} differs from the views' "
                          f"{first[1]}x{first[0]}")

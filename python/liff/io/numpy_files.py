@@ -33,7 +33,8 @@ def read_numpy(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
     -------
     LightFieldFile
         ``light_field`` as stored (4-D or 5-D, C in {1, 2, 3, 4}, uint8 / uint16 /
-        float32 / float64); ``format`` "npy" or "npz"; ``metadata``: ``key`` and
+        float32 / float64; a big-endian array is converted to native byte order);
+        ``format`` "npy" or "npz"; ``metadata``: ``key`` and
         ``keys`` (npz). An npz array ``gt_disparity`` of shape (V, U) becomes
         ``gt_disparity`` (float32).
 
@@ -79,5 +80,8 @@ def read_numpy(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
         if not isinstance(disparity, np.ndarray) or disparity.shape != light_field.shape[2:4]:
             raise ValueError(f"{path}[{DISPARITY_KEY!r}]: shape {getattr(disparity, 'shape', None)}; "
                              f"expected the views' (V, U) = {light_field.shape[2:4]}")
+        if disparity.dtype.kind not in "biuf":  # astype would parse strings, drop imaginary parts
+            raise ValueError(f"{path}[{DISPARITY_KEY!r}]: dtype {disparity.dtype}; expected real "
+                             f"numbers (disparity in pixels per view step)")
         disparity = disparity.astype(np.float32)
     return LightFieldFile(light_field, "npz", {"key": key, "keys": keys}, disparity, path)

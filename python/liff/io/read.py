@@ -4,17 +4,15 @@ from __future__ import annotations
 
 import inspect
 import os
-import re
 from typing import Callable, Dict, Optional
 
 from ._shared import LightFieldFile, PathLike
 from .eslf import read_eslf
+from .hci import _VIEW as _HCI_VIEW
 from .hci import read_hci
 from .mosaic import read_mosaic
 from .numpy_files import read_numpy
 from .views import read_views
-
-_HCI_VIEW = re.compile(r"^input_Cam\d{3}\.png$")
 
 
 def _read_hci(folder: PathLike) -> LightFieldFile:

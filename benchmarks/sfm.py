@@ -70,16 +70,19 @@ def features(lf_uint8: np.ndarray, method: str):
         T, S = lf_uint8.shape[:2]
         detector = cv2.SIFT.create(contrastThreshold=CONTRAST_THRESHOLD, edgeThreshold=EDGE_THRESHOLD)
         keypoints, descriptors = detector.detectAndCompute(lf_uint8[T // 2, S // 2], None)
-    if descriptors is None:
-        return keypoints, np.zeros((0, 128), np.uint8)
-    return keypoints, colmap.root_sift(descriptors)
+    return keypoints, colmap.root_sift(descriptors)  # None (no keypoints) gives (0, 128)
 
 
-def run_colmap(capture: captures.Capture, method: str, workdir: str, equalize: str) -> dict:
-    """Features, matching and both mappers on one capture: {mapper: metrics}."""
+def prepare(capture: captures.Capture, equalize: str) -> list:
+    """The 8-bit greyscale light field (T, S, V, U) of every pose: both methods' input."""
+    return [colmap.prepare_light_field(lf, equalise=equalize) for lf in capture.light_fields]
+
+
+def run_colmap(capture: captures.Capture, greys: list, method: str, workdir: str) -> dict:
+    """Features, matching and both mappers on one capture, given its prepared light
+    fields (:func:`prepare`): {mapper: metrics}."""
     images = []
-    for i, lf in enumerate(capture.light_fields):
-        grey = colmap.prepare_light_field(lf, equalise=equalize)
+    for i, grey in enumerate(greys):
         keypoints, descriptors = features(grey, method)
         T, S = grey.shape[:2]
         images.append(colmap.FeatureImage(f"pose{i:02d}.png", grey[T // 2, S // 2], keypoints, descriptors))
@@ -116,15 +119,17 @@ def run(setup: dict, progress: bool = True, equalize: str = "stretch") -> list:
     rows = []
     for seed in range(setup["scenes"]):
         for condition, capture in scene_captures(seed, setup):
+            greys = prepare(capture, equalize)  # once: both methods see the same input
             for method in METHODS:
                 workdir = tempfile.mkdtemp(prefix="liff-sfm-")
                 try:
-                    rows.append((seed, condition, method, run_colmap(capture, method, workdir, equalize)))
+                    rows.append((seed, condition, method, run_colmap(capture, greys, method, workdir)))
                 finally:
                     shutil.rmtree(workdir, ignore_errors=True)
                 if bar:
                     bar.set_postfix_str(f"scene {seed} {condition} {method}")
                     bar.update()
+            del greys
     if bar:
         bar.close()
     return rows

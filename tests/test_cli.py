@@ -216,3 +216,57 @@ def test_workers_share_the_cores():
     threads, failures = common.run_batch(liff.getNumThreads, jobs, 2, "detect", str)
     assert failures == 0
     assert threads == [max(1, (os.cpu_count() or 1) // 2)] * len(jobs)
+
+
+@pytest.mark.parametrize("command", ["sfm", "colmap"])
+def test_missing_pycolmap_is_a_message_not_a_traceback(disk_npz, tmp_path, capsys, monkeypatch, command):
+    """Without pycolmap, `liff sfm` / `liff colmap` say how to install it (liff.colmap's
+    message) and exit 1."""
+    monkeypatch.setitem(sys.modules, "pycolmap", None)  # `import pycolmap` raises ImportError
+    monkeypatch.delitem(sys.modules, "liff.colmap", raising=False)
+    monkeypatch.delattr(liff, "colmap", raising=False)
+    where = (["--workspace", str(tmp_path / "ws")] if command == "sfm" else
+             ["--database", str(tmp_path / "d.db"), "--image-dir", str(tmp_path / "im")])
+    assert main([command, disk_npz, disk_npz, *where]) == 1
+    err = capsys.readouterr().err
+    assert f"liff {command}: " in err and "pip install 'liff[sfm]'" in err
+    assert "Traceback" not in err
+    assert not (tmp_path / "d.db").exists()
+
+
+def test_colmap_images_are_the_cli_centre_views(disk_npz, tmp_path):
+    """`liff colmap` writes the centre view in 8 bits, as liff.plot.to_display scales it."""
+    from liff.cli.colmap import features_for_colmap
+    from liff.plot import to_display
+
+    view, rows, _ = features_for_colmap(disk_npz, {}, False, dict(firstSlope=-1.0, lastSlope=1.0))
+    with np.load(disk_npz) as data:
+        centre = data["light_field"][2, 2]
+    assert view.dtype == np.uint8 and len(rows) > 0
+    np.testing.assert_array_equal(view, cv2.cvtColor(to_display(centre), cv2.COLOR_BGR2GRAY))
+
+
+def test_detect_plot_into_a_new_folder(disk_npz, tmp_path, capsys):
+    """--plot newdir/ (one input) is a folder, as --out newdir/ is."""
+    plots, outs = str(tmp_path / "plots") + os.sep, str(tmp_path / "feats") + os.sep
+    assert main(["detect", disk_npz, "--out", outs, "--plot", plots]) == 0
+    assert os.listdir(tmp_path / "plots") == ["disks.png"]
+    assert os.listdir(tmp_path / "feats") == ["disks.npz"]
+    assert cv2.imread(str(tmp_path / "plots" / "disks.png")) is not None
+    # A file name is kept as it is (its ending picks the image format).
+    assert main(["detect", disk_npz, "--out", str(tmp_path / "one.npz"), "--plot",
+                 str(tmp_path / "one.jpg")]) == 0
+    assert cv2.imread(str(tmp_path / "one.jpg")) is not None
+
+
+@pytest.mark.parametrize("kind", ["disks", "layers"])
+@pytest.mark.parametrize("options, message", [
+    (["--size", "0", "0"], "shape"), (["--size", "32", "-4"], "shape"),
+    (["--views", "0"], "shape"), (["--noise", "-1"], "noise_variance"),
+    (["--noise", "nan"], "noise_variance"), (["--noise", "inf"], "noise_variance")])
+def test_synth_refuses_bad_sizes_and_noise(tmp_path, capsys, kind, options, message):
+    out = tmp_path / "lf.npz"
+    assert main(["synth", kind, "--out", str(out), *options]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("liff synth: ") and message in err and "Traceback" not in err
+    assert not out.exists()

@@ -202,3 +202,77 @@ def test_prepare_light_field_matches_the_papers_greyscale():
     assert colmap.prepare_light_field(lf[1, 1]).shape == (40, 50)
     with pytest.raises(ValueError, match="shape"):
         colmap.prepare_light_field(np.zeros((2, 3, 4)))
+
+
+def test_write_database_checks_names_before_writing(tmp_path):
+    """A name without an image ending, or one that cannot be written, is a ValueError
+    before the database exists, so the next run can use the same path."""
+    image = np.zeros((20, 30), np.uint8)
+    kps, desc = [cv2.KeyPoint(1.0, 1.0, 2.0)], np.full((1, 128), 9, np.uint8)
+    good = colmap.FeatureImage("a.png", image, kps, desc)
+    for name, message in (("pose0", "image ending"), ("b.npy", "image ending"),
+                          ("missing_folder/b.png", "could not write")):
+        bad = colmap.FeatureImage(name, image, kps, desc)
+        with pytest.raises(ValueError, match=message):
+            colmap.write_database(tmp_path / "a.db", tmp_path / "im", [good, bad])
+        assert not (tmp_path / "a.db").exists()
+    assert colmap.write_database(tmp_path / "a.db", tmp_path / "im",
+                                 [good, colmap.FeatureImage("B.JPG", image, kps, desc)]) == [1, 2]
+
+
+def test_write_database_takes_images_as_to_display_scales_them(tmp_path):
+    """uint16 (/65535), float (NaN as 0) and BGR images become the grey uint8 images
+    liff.plot.to_display gives; other shapes and dtypes are ValueErrors."""
+    rng = np.random.default_rng(3)
+    images = {"u16.png": rng.integers(0, 65536, (20, 30), dtype=np.uint16),
+              "float.png": rng.random((20, 30)),
+              "bgr.png": rng.integers(0, 256, (20, 30, 3), dtype=np.uint8)}
+    images["float.png"][0, 0] = np.nan
+    feature_images = [colmap.FeatureImage(name, im, [], None) for name, im in images.items()]
+    colmap.write_database(tmp_path / "a.db", tmp_path / "im", feature_images)
+    for name, im in images.items():
+        expected = cv2.cvtColor(liff.plot.to_display(im), cv2.COLOR_BGR2GRAY)
+        np.testing.assert_array_equal(cv2.imread(str(tmp_path / "im" / name), cv2.IMREAD_UNCHANGED),
+                                      expected)
+    assert cv2.imread(str(tmp_path / "im" / "u16.png"), cv2.IMREAD_UNCHANGED).std() > 50  # not all 255
+    assert cv2.imread(str(tmp_path / "im" / "float.png"), cv2.IMREAD_UNCHANGED)[0, 0] == 0
+    grey = np.arange(256, dtype=np.uint8).reshape(16, 16)
+    np.testing.assert_array_equal(colmap._as_uint8_image(grey), grey)  # uint8 unchanged
+    for bad, message in ((np.zeros((4, 5, 4), np.uint8), "shape"), (np.zeros(5), "shape"),
+                         (np.zeros((4, 5), bool), "dtype")):
+        with pytest.raises(ValueError, match=message):
+            colmap.write_database(tmp_path / "b.db", tmp_path / "im",
+                                  [colmap.FeatureImage("x.png", bad, [], None)])
+    assert not (tmp_path / "b.db").exists()
+
+
+def test_root_sift_checks_its_input():
+    assert colmap.root_sift(None).shape == (0, 128)  # cv2.SIFT without keypoints
+    assert colmap.root_sift(None).dtype == np.uint8
+    assert colmap.root_sift(np.zeros((0, 128), np.float32)).shape == (0, 128)
+    good = np.full((2, 128), 40.0, np.float32)
+    np.testing.assert_array_equal(colmap.root_sift(good), colmap.root_sift(good.astype(np.uint8)))
+    with pytest.raises(ValueError, match=r"shape \(2, 64\); expected \(N, 128\)"):
+        colmap.root_sift(good[:, :64])
+    with pytest.raises(ValueError, match="shape"):
+        colmap.root_sift(good[0])
+    bad = good.copy()
+    bad[0, 0] = -1
+    with pytest.raises(ValueError, match=">= 0"):
+        colmap.root_sift(bad)
+    bad[0, 0] = np.nan
+    with pytest.raises(ValueError, match="finite"):
+        colmap.root_sift(bad)
+    with pytest.raises(ValueError, match="dtype"):
+        colmap.root_sift(good.astype(np.complex64))
+
+
+@pytest.mark.parametrize("shape", [(40, 50), (40, 50, 1), (40, 50, 3), (3, 3, 40, 50),
+                                   (3, 3, 40, 50, 1), (3, 3, 40, 50, 3), (3, 3, 40, 50, 4)])
+def test_prepare_light_field_is_prepare_in_8_bits(shape):
+    lf = np.random.default_rng(2).integers(0, 256, shape, dtype=np.uint8)
+    grey = colmap.prepare_light_field(lf, equalise="cdf")
+    np.testing.assert_array_equal(grey, np.round(preprocess.prepare(lf, equalize="cdf") * 255))
+    assert grey.dtype == np.uint8
+    with pytest.raises(ValueError, match=r"input of shape \(3, 3, 40, 50, 5\)"):
+        colmap.prepare_light_field(np.zeros((3, 3, 40, 50, 5)))

@@ -156,3 +156,36 @@ def test_textured_layers_contrast_and_noise():
     assert abs((noisy.light_field - clean.light_field).var() - 1e-3) < 2e-4
     with pytest.raises(ValueError, match="three increasing"):
         synthetic.textured_layers(slopes=(0.5, 0.1, 0.7))
+
+
+@pytest.mark.parametrize("shape", [(0, 0, 32, 32), (3, 3, 0, 32), (3, 3, 32, -1), (3, 3, 32),
+                                   (3, 3, 32.5, 32), (3, 3, 32, 32, 1)])
+def test_generators_refuse_bad_shapes(shape):
+    with pytest.raises(ValueError, match="shape"):
+        synthetic.render_disks([], shape)
+    with pytest.raises(ValueError, match="shape"):
+        synthetic.paper_disks(shape=shape)
+    with pytest.raises(ValueError, match="shape"):
+        synthetic.textured_layers(shape)
+
+
+@pytest.mark.parametrize("variance", [-1.0, -1e-9, float("nan"), float("inf")])
+def test_generators_refuse_bad_noise(variance):
+    with pytest.raises(ValueError, match="noise_variance"):
+        synthetic.render_disks([], (1, 1, 8, 8), noise_variance=variance)
+    with pytest.raises(ValueError, match="noise_variance"):
+        synthetic.textured_layers((1, 1, 8, 8), noise_variance=variance)
+
+
+def test_generators_take_the_smallest_shapes_and_check_the_rest():
+    """One view of one pixel is a light field (the texture blur copes); numpy ints are
+    sizes; an unknown profile and no disks are errors."""
+    assert synthetic.render_disks([], (1, 1, 1, 1)).shape == (1, 1, 1, 1)
+    assert synthetic.textured_layers((1, 1, 1, 1)).light_field.shape == (1, 1, 1, 1)
+    shape = tuple(np.int64(n) for n in (3, 3, 16, 16))
+    assert synthetic.textured_layers(shape, noise_variance=0).light_field.shape == (3, 3, 16, 16)
+    assert len(synthetic.paper_disks(n=4, shape=shape)) == 4
+    with pytest.raises(ValueError, match="profile"):
+        synthetic.render_disks([], (1, 1, 8, 8), profile="square")
+    with pytest.raises(ValueError, match="at least 1 disk"):
+        synthetic.paper_disks(n=0)

@@ -31,7 +31,8 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 import cv2
 import numpy as np
 
-from . import preprocess
+from . import plot, preprocess
+from .io._shared import IMAGE_SUFFIXES, write_image
 
 try:
     import pycolmap
@@ -48,9 +49,11 @@ class FeatureImage:
     Attributes
     ----------
     name : str
-        File name inside the image folder, e.g. ``"pose00.png"``.
-    image : ndarray, shape (V, U)
-        Grey image, uint8, or float nominally in [0, 1] (written as 8-bit PNG).
+        File name inside the image folder, e.g. ``"pose00.png"``, with an image ending
+        (``.png``, ``.tif``, ``.jpg``, ...).
+    image : ndarray, shape (V, U) or (V, U, 3)
+        Grey or BGR image, uint8, uint16 or float nominally in [0, 1]; written as an
+        8-bit grey image (see :func:`liff.plot.to_display`).
     keypoints : sequence of cv2.KeyPoint
         OpenCV pixel coordinates (centre of the top-left pixel at (0, 0)).
     descriptors : ndarray, shape (N, 128), uint8 or float
@@ -104,6 +107,19 @@ def keypoints_to_colmap(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
     return out
 
 
+def _descriptor_matrix(descriptors: np.ndarray) -> np.ndarray:
+    """``descriptors`` as an array of shape (N, 128); raises ValueError for another shape."""
+    d = np.asarray(descriptors)
+    if d.ndim != 2 or d.shape[1] != 128:
+        raise ValueError(f"descriptors have shape {d.shape}; expected (N, 128)")
+    return d
+
+
+def _check_descriptor_dtype(d: np.ndarray) -> None:
+    if d.dtype.kind not in "fiu":
+        raise ValueError(f"descriptors have dtype {d.dtype}; expected uint8 or float")
+
+
 def descriptors_to_colmap(descriptors: Optional[np.ndarray], num_keypoints: int) -> np.ndarray:
     """Checks descriptors on SIFT's integer scale and casts them to uint8 (N, 128).
 
@@ -116,15 +132,12 @@ def descriptors_to_colmap(descriptors: Optional[np.ndarray], num_keypoints: int)
         if num_keypoints:
             raise ValueError(f"descriptors are None but there are {num_keypoints} keypoints")
         return np.zeros((0, 128), np.uint8)
-    d = np.asarray(descriptors)
-    if d.ndim != 2 or d.shape[1] != 128:
-        raise ValueError(f"descriptors have shape {d.shape}; expected (N, 128)")
+    d = _descriptor_matrix(descriptors)
     if d.shape[0] != num_keypoints:
         raise ValueError(f"{d.shape[0]} descriptors for {num_keypoints} keypoints; expected one each")
     if d.dtype == np.uint8:
         return np.ascontiguousarray(d)
-    if d.dtype.kind not in "fiu":
-        raise ValueError(f"descriptors have dtype {d.dtype}; expected uint8 or float")
+    _check_descriptor_dtype(d)
     if not np.isfinite(d).all() or (d.size and (d.min() < 0 or d.max() > 255.5)):
         raise ValueError("descriptors must be finite and in [0, 255] (SIFT's round(512 * d))")
     if d.size and d.max() <= 1.0:
@@ -133,32 +146,48 @@ def descriptors_to_colmap(descriptors: Optional[np.ndarray], num_keypoints: int)
     return np.clip(np.round(d), 0, 255).astype(np.uint8)
 
 
-def root_sift(descriptors: np.ndarray) -> np.ndarray:
+def root_sift(descriptors: Optional[np.ndarray]) -> np.ndarray:
     """RootSIFT (Arandjelovic and Zisserman 2012) of SIFT descriptors, on the same scale.
 
     Parameters
     ----------
-    descriptors : ndarray, shape (N, 128)
-        SIFT descriptors as ``round(512 * d)`` (cv2.SIFT, liff with rootSift=False).
+    descriptors : ndarray, shape (N, 128), or None
+        SIFT descriptors as ``round(512 * d)`` (cv2.SIFT, liff with rootSift=False);
+        None (what cv2.SIFT returns when it finds no keypoints) is taken as N = 0.
 
     Returns
     -------
     ndarray of uint8, shape (N, 128)
         ``round(512 * sqrt(d / |d|_1))`` saturated to [0, 255]; sqrt(d / |d|_1) has unit
         L2 norm, so this is COLMAP's format. The paper used RootSIFT for both methods.
+
+    Raises
+    ------
+    ValueError
+        For a shape other than (N, 128), a dtype other than integer or float, or
+        values that are negative or not finite.
     """
-    d = np.asarray(descriptors, dtype=np.float64).reshape(-1, 128)
+    if descriptors is None:
+        return np.zeros((0, 128), np.uint8)
+    d = _descriptor_matrix(descriptors)
+    _check_descriptor_dtype(d)
+    if not np.isfinite(d).all() or (d.size and d.min() < 0):
+        raise ValueError("descriptors must be finite and >= 0 (SIFT's round(512 * d))")
+    d = d.astype(np.float64)
     l1 = np.maximum(d.sum(axis=1, keepdims=True), 1e-12)
     return np.clip(np.round(512 * np.sqrt(d / l1)), 0, 255).astype(np.uint8)
 
 
 def _as_uint8_image(image: np.ndarray) -> np.ndarray:
+    """A grey uint8 copy of a grey or BGR image (uint8, uint16 or float in [0, 1]), as
+    :func:`liff.plot.to_display` scales it; what COLMAP's images are."""
     image = np.asarray(image)
-    if image.ndim != 2:
-        raise ValueError(f"image has shape {image.shape}; expected a grey (V, U) image")
-    if image.dtype == np.uint8:
-        return image
-    return np.clip(np.round(image * 255.0), 0, 255).astype(np.uint8)
+    if not (image.ndim == 2 or (image.ndim == 3 and image.shape[2] in (1, 3))) or 0 in image.shape:
+        raise ValueError(f"image has shape {image.shape}; expected a grey (V, U) or BGR "
+                         f"(V, U, 3) image")
+    if image.dtype.kind not in "fu":
+        raise ValueError(f"image has dtype {image.dtype}; expected uint8, uint16 or float")
+    return cv2.cvtColor(plot.to_display(image), cv2.COLOR_BGR2GRAY)
 
 
 def prepare_light_field(lf: np.ndarray, gamma: float = 0.5, equalise=True) -> np.ndarray:
@@ -170,7 +199,8 @@ def prepare_light_field(lf: np.ndarray, gamma: float = 0.5, equalise=True) -> np
     ----------
     lf : ndarray, shape (T, S, V, U[, C]) or (V, U[, C])
         uint8 (/255), uint16 (/65535) or float nominally in [0, 1] (clipped); colour is
-        BGR, turned grey by luminance 0.299 R + 0.587 G + 0.114 B.
+        BGR, turned grey by luminance 0.299 R + 0.587 G + 0.114 B. A weight / alpha
+        channel (C = 2 or 4) is kept as a second channel (docs/INPUTS.md).
     gamma : float
         Exponent applied to the [0, 1] intensities (the paper: 0.5).
     equalise : bool or {"stretch", "cdf"}
@@ -180,16 +210,19 @@ def prepare_light_field(lf: np.ndarray, gamma: float = 0.5, equalise=True) -> np
     Returns
     -------
     ndarray of uint8, shape (T, S, V, U) or (V, U)
-        Its centre view is what SIFT on the centre view should see.
+        Its centre view is what SIFT on the centre view should see. (T, S, V, U, 2)
+        or (V, U, 2), grey + weight, for input with a weight channel.
+
+    Raises
+    ------
+    ValueError
+        From :func:`liff.preprocess.prepare`, naming the input's shape.
     """
-    lf = np.asarray(lf)
-    is_image = lf.ndim == 2 or (lf.ndim == 3 and lf.shape[-1] in (1, 3))
-    if not is_image and lf.ndim not in (4, 5):
-        raise ValueError(f"light field has shape {lf.shape}; expected (T, S, V, U[, C]) or (V, U[, C])")
-    as_light_field = lf[None, None] if is_image else lf
-    grey = preprocess.prepare(as_light_field, luminance=True, gamma=gamma, equalize=equalise)
-    grey = np.round(grey * 255).astype(np.uint8)
-    return grey[0, 0] if is_image else grey
+    try:
+        grey = preprocess.prepare(lf, luminance=True, gamma=gamma, equalize=equalise)
+    except ValueError as error:
+        raise ValueError(f"input of shape {np.shape(lf)}: {error}") from None
+    return np.round(grey * 255).astype(np.uint8)
 
 
 # --- the pipeline ----------------------------------------------------------------------
@@ -216,8 +249,10 @@ def write_database(
     ------
     ValueError
         If the database already exists (COLMAP's matcher skips pairs it has already
-        matched, so every run needs a fresh one), no images are given, names repeat,
-        sizes differ, or features are malformed (see :func:`descriptors_to_colmap`).
+        matched, so every run needs a fresh one), no images are given, names repeat or
+        lack an image ending, images are not grey or BGR, sizes differ, features are
+        malformed (see :func:`descriptors_to_colmap`), or an image cannot be written.
+        Nothing is written to the database unless everything is valid.
     """
     database_path, image_dir = os.fspath(database_path), os.fspath(image_dir)
     if os.path.exists(database_path):
@@ -227,6 +262,10 @@ def write_database(
     names = [im.name for im in images]
     if len(set(names)) != len(names):
         raise ValueError(f"image names repeat: {names}")
+    for name in names:
+        if os.path.splitext(name)[1].lower() not in IMAGE_SUFFIXES:
+            raise ValueError(f"image name '{name}' has no image ending; expected one of "
+                             f"{', '.join(IMAGE_SUFFIXES)}")
     grey = [_as_uint8_image(im.image) for im in images]
     if len({g.shape for g in grey}) != 1:
         raise ValueError(f"images differ in size: {sorted({g.shape for g in grey})}")
@@ -243,17 +282,22 @@ def write_database(
         camera.params = [float(focal), cx + 0.5, cy + 0.5]
         camera.has_prior_focal_length = True
     os.makedirs(image_dir, exist_ok=True)
+    for im, g in zip(images, grey):  # before the database, so a failure leaves none behind
+        write_image(os.path.join(image_dir, im.name), g)
     ids = []
-    with pycolmap.Database.open(database_path) as db:
-        camera_id = db.write_camera(camera)
-        for im, g, (keypoints, descriptors) in zip(images, grey, features):
-            if not cv2.imwrite(os.path.join(image_dir, im.name), g):
-                raise ValueError(f"could not write '{os.path.join(image_dir, im.name)}'")
-            image_id = db.write_image(pycolmap.Image(name=im.name, camera_id=camera_id))
-            db.write_keypoints(image_id, keypoints)
-            db.write_descriptors(image_id, pycolmap.FeatureDescriptors(
-                pycolmap.FeatureExtractorType.SIFT, descriptors))
-            ids.append(image_id)
+    try:
+        with pycolmap.Database.open(database_path) as db:
+            camera_id = db.write_camera(camera)
+            for im, (keypoints, descriptors) in zip(images, features):
+                image_id = db.write_image(pycolmap.Image(name=im.name, camera_id=camera_id))
+                db.write_keypoints(image_id, keypoints)
+                db.write_descriptors(image_id, pycolmap.FeatureDescriptors(
+                    pycolmap.FeatureExtractorType.SIFT, descriptors))
+                ids.append(image_id)
+    except BaseException:
+        if os.path.exists(database_path):  # half written: it would refuse the next run
+            os.remove(database_path)
+        raise
     return ids
 
 

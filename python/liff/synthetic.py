@@ -8,6 +8,7 @@ nearer the camera and occlude smaller ones.
 
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass
 from typing import Optional, Sequence, Tuple
 
@@ -24,6 +25,26 @@ class Blob:
     radius: float
     slope: float
     intensity: float
+
+
+def _check_shape(shape) -> Tuple[int, int, int, int]:
+    """``shape`` as four ints (T, S, V, U), each >= 1; raises ValueError otherwise."""
+    try:
+        T, S, V, U = (operator.index(n) for n in shape)
+    except (TypeError, ValueError):
+        raise ValueError(f"shape = {shape!r}; expected four integers (T, S, V, U)") from None
+    if min(T, S, V, U) < 1:
+        raise ValueError(f"shape = {tuple(shape)!r}; expected at least 1 view (T, S) and 1 pixel "
+                         f"(V, U) along each axis")
+    return T, S, V, U
+
+
+def _check_noise(noise_variance: float) -> float:
+    """``noise_variance`` if it is a finite number >= 0; raises ValueError otherwise."""
+    if not (np.isfinite(noise_variance) and noise_variance >= 0):
+        raise ValueError(f"noise_variance = {noise_variance!r}; expected a finite number >= 0 "
+                         f"(0 for no noise)")
+    return noise_variance
 
 
 def _view_offsets(T: int, S: int, slope: float):
@@ -60,8 +81,17 @@ def render_disks(
     Returns
     -------
     lf : ndarray of float64, shape (T, S, V, U)
+
+    Raises
+    ------
+    ValueError
+        For a shape entry below 1, a negative or non-finite ``noise_variance``, or an
+        unknown ``profile``.
     """
-    T, S, V, U = shape
+    T, S, V, U = shape = _check_shape(shape)
+    _check_noise(noise_variance)
+    if profile not in ("disk", "gaussian"):
+        raise ValueError(f"profile = {profile!r}; expected 'disk' or 'gaussian'")
     lf = np.full(shape, background, dtype=np.float64)
     yy, xx = np.mgrid[0:V, 0:U].astype(np.float64)
     for blob in sorted(blobs, key=lambda b: b.slope):  # far first; near ones occlude
@@ -99,8 +129,12 @@ def paper_disks(
     Disks sit on a jittered grid so that none overlap in any view; radii span about
     2.5 to 8 pixels, slopes are spread evenly over ``slope_range`` in a shuffled
     order, and every disk is brighter than the background by ``contrast``.
+
+    Raises ValueError for ``n`` < 1 or a shape entry below 1.
     """
-    T, S, V, U = shape
+    T, S, V, U = _check_shape(shape)
+    if n < 1:
+        raise ValueError(f"n = {n!r}; expected at least 1 disk")
     rng = np.random.default_rng(seed)
     cols = int(np.ceil(np.sqrt(n * U / V)))
     rows = int(np.ceil(n / cols))
@@ -192,10 +226,14 @@ def textured_layers(
     0.5. Rendering warps each layer bilinearly per view (so, unlike the disk scenes,
     not analytically), composites near over far, adds Gaussian noise of variance
     ``noise_variance`` view by view and clips to [0, 1].
+
+    Raises ValueError for a shape entry below 1, a negative or non-finite
+    ``noise_variance``, or slopes that are not three increasing values.
     """
     import cv2
 
-    T, S, V, U = shape
+    T, S, V, U = shape = _check_shape(shape)
+    _check_noise(noise_variance)
     if len(slopes) != 3 or not np.all(np.diff(slopes) > 0):
         raise ValueError(f"slopes = {slopes}; expected three increasing slopes (far to near)")
     yy, xx = np.mgrid[0:V, 0:U]

@@ -2,7 +2,8 @@
 
 Every subcommand lives in its own module here and registers itself with
 ``add_parser(subparsers)``; errors about the user's files are reported as
-``liff <command>: <file>: <what was wrong>`` with a non-zero exit status.
+``liff <command>: <file>: <what was wrong>`` with a non-zero exit status, and so is a
+missing optional dependency (``liff sfm`` without pycolmap).
 """
 
 from __future__ import annotations
@@ -33,6 +34,6 @@ def main(argv: Optional[List[str]] = None) -> int:
     except KeyboardInterrupt:
         print(f"liff {args.command}: interrupted", file=sys.stderr)
         return 130
-    except (ValueError, OSError, MemoryError) as error:
+    except (ValueError, OSError, MemoryError, ImportError) as error:
         print(f"liff {args.command}: {error}", file=sys.stderr)
         return 1

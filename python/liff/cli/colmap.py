@@ -7,12 +7,10 @@ import argparse
 import os
 import shutil
 
-import cv2
 import numpy as np
 
 from .._detector import _keypoints_to_rows, _rows_to_keypoints
 from ..feature_file import centre_view, load_features
-from ..plot import to_display
 from . import common
 from .match import is_feature_file
 
@@ -53,20 +51,20 @@ def add_parser(sub) -> None:
 def features_for_colmap(path: str, options: dict, preprocess: bool, parameters: dict):
     """(centre view uint8 grey, keypoint rows (N, 7), descriptors) of one input; arrays
     only, so that worker processes can send them back."""
+    from .. import colmap
+
     if is_feature_file(path):
         features = load_features(path)
         if features.centre_view is None:
             raise ValueError("the feature file holds no centre view; expected one from liff detect")
         view, keypoints, descriptors = features.centre_view, features.keypoints, features.descriptors
     else:
-        from ..colmap import prepare_light_field
-
         light_field = common.load_light_field(path, options, preprocess=False)
         if preprocess:  # the paper's 8-bit greyscale, which SIFT on the centre view also gets
-            light_field = prepare_light_field(light_field)
+            light_field = colmap.prepare_light_field(light_field)
         keypoints, descriptors = common.make_detector(parameters).detectAndCompute(light_field, None)
         view = centre_view(light_field)
-    view = cv2.cvtColor(to_display(view), cv2.COLOR_BGR2GRAY)  # grey uint8, as COLMAP wants
+    view = colmap._as_uint8_image(view)  # grey uint8, as COLMAP wants
     return view, _keypoints_to_rows(keypoints), descriptors
 
 
@@ -107,14 +105,12 @@ def run_colmap(args: argparse.Namespace) -> int:
 
 
 def run_sfm(args: argparse.Namespace) -> int:
-    import pycolmap
-
-    from .. import colmap
+    from .. import colmap  # first: without pycolmap it says how to install it
 
     if len(args.paths) < 2:
         raise ValueError(f"{len(args.paths)} input; expected light fields of at least 2 camera "
                          "poses for structure from motion")
-    pycolmap.logging.minloglevel = 2  # COLMAP's INFO lines would drown the summary
+    colmap.pycolmap.logging.minloglevel = 2  # COLMAP's INFO lines would drown the summary
 
     database = os.path.join(args.workspace, "database.db")
     image_dir = os.path.join(args.workspace, "images")

@@ -31,15 +31,18 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def destination(given, path: str, suffix: str, many: bool) -> str:
+def destination(given, path: str, suffix: str, many: bool, force_suffix: bool = True) -> str:
     """Where the output for ``path`` goes: ``given`` itself for one input (unless it is
-    a folder), else ``given``/<name><suffix>."""
+    a folder, or ends with a path separator), else ``given``/<name><suffix>.
+
+    ``force_suffix``: a single ``given`` without ``suffix`` gets it appended (numpy's
+    savez does that anyway; say, and check, the real file name); False keeps ``given``
+    as it is (an image, whose ending chooses the format)."""
     if given is None:
         return common.output_name(path, suffix)
-    if many or os.path.isdir(given) or given.endswith(os.sep):
+    if many or os.path.isdir(given) or given.endswith(tuple(filter(None, (os.sep, os.altsep)))):
         return os.path.join(given, common.output_name(path, suffix))
-    # numpy appends .npz to a name without it; say (and check) the real file name
-    return given if given.endswith(suffix) else given + suffix
+    return given if given.endswith(suffix) or not force_suffix else given + suffix
 
 
 def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
@@ -67,8 +70,7 @@ def run(args: argparse.Namespace) -> int:
     jobs, skipped, seen = [], 0, {}
     for path in args.paths:
         out = destination(args.out, path, ".npz", many)
-        plot = (destination(args.plot, path, ".png", many) if many or os.path.isdir(args.plot)
-                else args.plot) if args.plot else None
+        plot = destination(args.plot, path, ".png", many, force_suffix=False) if args.plot else None
         if out in seen:
             raise ValueError(f"{path} and {seen[out]} would both write {out}; expected inputs "
                              "with distinct names (or one --out per run)")

@@ -302,10 +302,14 @@ def write_database(
 
 
 def matching_options(seed: int = 0) -> tuple:
-    """COLMAP's default matching (SIFT brute force, ratio 0.8, distance 0.7, cross check)
-    and two-view verification (RANSAC, 4 px, 15 inliers), with a fixed RANSAC seed."""
+    """COLMAP's default matching (ratio 0.8, distance 0.7, cross check) on the CPU by
+    exact brute force, and two-view verification (RANSAC, 4 px, 15 inliers) with a fixed
+    RANSAC seed. COLMAP's CPU default is an approximate nearest-neighbour index whose
+    matches vary from run to run (a few % of putative matches); exact search makes the
+    matches, and so every table built on them, repeatable."""
     matching = pycolmap.FeatureMatchingOptions()
     matching.use_gpu = False
+    matching.sift.cpu_brute_force_matcher = True
     verification = pycolmap.TwoViewGeometryOptions()
     verification.ransac.random_seed = seed
     return matching, verification
@@ -338,9 +342,11 @@ def mapper_options(kind: str = "default", seed: int = 0) -> "pycolmap.Incrementa
     ratio of 0.15 (0.25); two-view tracks are kept (ignored by default); a further model
     needs 3 images (10, or 80% of the images if fewer). COLMAP keeps its first model
     whatever its size, so with either setting two registered images make a model. Both
-    fix the random seed.
+    fix the random seed and run on one thread: with several, bundle adjustment's sums
+    come in a varying order and the 3-D point counts vary from run to run.
     """
     options = pycolmap.IncrementalPipelineOptions()
+    options.num_threads = 1
     options.random_seed = seed
     options.mapper.random_seed = seed
     options.triangulation.random_seed = seed

@@ -5,9 +5,9 @@ The scene is the paper's: 26 disks at varying scales and at slopes spread over
 Gaussian noise. For each noise variance (1e-7 .. 10) and repetition, LiFF (9 slopes),
 SIFT on the centre view and SIFT on all 81 views run once at the lowest contrast
 threshold; every higher threshold keeps the keypoints whose response clears it
-(liff.scoring.above_threshold). Repeated SIFT consolidates the per-view detections
-(liff.baselines.consolidate) requiring 25% and 12% of the views. Scores
-(liff.scoring.score_blobs): true-positive rate over the 26 disks and false-positive
+(benchmarks/scoring.py above_threshold). Repeated SIFT consolidates the per-view detections
+(benchmarks/baselines.py consolidate) requiring 25% and 12% of the views. Scores
+(benchmarks/scoring.py score_blobs): true-positive rate over the 26 disks and false-positive
 count, averaged over repetitions.
 
 Writes noise_performance.png (2x2 like the paper's figure) into --out and prints the
@@ -26,8 +26,9 @@ import time
 import numpy as np
 
 import liff
-from liff import baselines, synthetic
-from liff.scoring import above_threshold, score_blobs
+import baselines
+from liff import synthetic
+from scoring import above_threshold, score_blobs
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SHAPE = (9, 9, 256, 256)

@@ -1,4 +1,4 @@
-"""Shared fixtures for the liff test suite (light fields kept small: the suite runs on 2 cores)."""
+"""Shared fixtures for the liff test suite (light fields kept small, so the suite stays quick)."""
 
 from __future__ import annotations
 

@@ -254,3 +254,69 @@ def test_submodules_reachable_from_import_liff():
 
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
+
+
+def test_parameter_table_is_the_one_definition():
+    """liff.PARAMETERS (from C++'s LIFF_PARAMETERS) drives create(), the accessors and
+    repr: its defaults are a new detector's, and each has a getter and a setter."""
+    import inspect
+
+    names = [p.name for p in liff.PARAMETERS]
+    assert names == list(DEFAULTS)  # create()'s positional order, cv2.SIFT's first
+    d = liff.LiFF.create()
+    for p in liff.PARAMETERS:
+        assert getattr(d, "get" + p.accessor)() == p.default == DEFAULTS[p.name]
+        assert type(p.default) is p.type and p.help
+        assert callable(getattr(d, "set" + p.accessor))
+    signature = inspect.signature(liff.LiFF.create)
+    assert [(q.name, q.default) for q in signature.parameters.values()] == [
+        (p.name, p.default) for p in liff.PARAMETERS]
+    assert inspect.signature(liff.LiFF).parameters.keys() == signature.parameters.keys()
+    for p in liff.PARAMETERS:  # the class docstring documents each
+        assert f"{p.name} : {p.type.__name__}" in liff.LiFF.__doc__
+
+
+def test_create_rejects_unknown_and_repeated_arguments():
+    with pytest.raises(TypeError, match="contrastThreshold"):
+        liff.LiFF.create(contrastTreshold=0.02)
+    with pytest.raises(TypeError, match="multiple values"):
+        liff.LiFF.create(0, nfeatures=3)
+    with pytest.raises(TypeError, match="at most 10"):
+        liff.LiFF.create(*CUSTOM.values(), 1)
+    with pytest.raises(TypeError, match="unexpected keyword"):
+        liff._core.LiFF(foo=1)
+
+
+def test_stubs_match_the_compiled_module():
+    """python/liff/_core.pyi names exactly what liff._core has (so type checkers and
+    IDEs see the real module), including every parameter's getter and setter."""
+    import ast
+    from pathlib import Path
+
+    stub = ast.parse((Path(liff.__file__).parent / "_core.pyi").read_text())
+    module_names, class_names = set(), set()
+    for node in stub.body:
+        if isinstance(node, ast.FunctionDef):
+            module_names.add(node.name)
+        elif isinstance(node, ast.AnnAssign):
+            module_names.add(node.target.id)
+        elif isinstance(node, ast.ClassDef) and node.name == "LiFF":
+            module_names.add("LiFF")
+            class_names = {n.name for n in node.body if isinstance(n, ast.FunctionDef)}
+    core = liff._core
+    assert module_names == {n for n in dir(core) if not n.startswith("__")}
+    # (pybind11's own _pybind11_conduit_v1_ is not ours to stub)
+    assert class_names - {"__init__"} == {n for n in vars(core.LiFF)
+                                          if not n.startswith("__") and "pybind11" not in n}
+    for p in liff.PARAMETERS:
+        assert {"get" + p.accessor, "set" + p.accessor} <= class_names
+
+
+def test_docstring_examples_run():
+    """The LiFF docstring's Examples section is a doctest: it stays true."""
+    import doctest
+
+    from liff import _detector
+
+    result = doctest.testmod(_detector, optionflags=doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted >= 5 and result.failed == 0

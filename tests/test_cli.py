@@ -270,3 +270,29 @@ def test_synth_refuses_bad_sizes_and_noise(tmp_path, capsys, kind, options, mess
     err = capsys.readouterr().err
     assert err.startswith("liff synth: ") and message in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_every_detector_parameter_is_an_option(disk_npz, tmp_path):
+    """The detector options come from liff.PARAMETERS: each create() keyword has its
+    flag with create()'s default, and a value given on the command line reaches the
+    detector (recorded in the output's metadata)."""
+    import argparse
+
+    from liff.cli import common
+
+    parser = argparse.ArgumentParser()
+    common.add_detector_options(parser)
+    defaults = common.detector_parameters(parser.parse_args([]))
+    assert defaults == {p.name: p.default for p in liff.PARAMETERS}
+    given = {"nfeatures": 5, "nOctaveLayers": 4, "contrastThreshold": 0.03, "edgeThreshold": 8.0,
+             "sigma": 1.5, "firstSlope": -1.5, "lastSlope": 1.5, "numSlopes": 7,
+             "descriptorType": cv2.CV_8U, "rootSift": True}
+    assert set(given) == set(defaults)
+    argv = []
+    for name, value in given.items():
+        argv += [common.option_name(name)] if value is True else [common.option_name(name), str(value)]
+    out = str(tmp_path / "f.npz")
+    assert main(["detect", disk_npz, "--out", out] + argv) == 0
+    features = load_features(out)
+    assert features.meta["parameters"] == given
+    assert features.descriptors.dtype == np.uint8

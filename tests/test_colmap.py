@@ -237,7 +237,7 @@ def test_write_database_takes_images_as_to_display_scales_them(tmp_path):
     assert cv2.imread(str(tmp_path / "im" / "u16.png"), cv2.IMREAD_UNCHANGED).std() > 50  # not all 255
     assert cv2.imread(str(tmp_path / "im" / "float.png"), cv2.IMREAD_UNCHANGED)[0, 0] == 0
     grey = np.arange(256, dtype=np.uint8).reshape(16, 16)
-    np.testing.assert_array_equal(colmap._as_uint8_image(grey), grey)  # uint8 unchanged
+    np.testing.assert_array_equal(colmap.grey_uint8_image(grey), grey)  # uint8 unchanged
     for bad, message in ((np.zeros((4, 5, 4), np.uint8), "shape"), (np.zeros(5), "shape"),
                          (np.zeros((4, 5), bool), "dtype")):
         with pytest.raises(ValueError, match=message):

@@ -66,7 +66,8 @@ def test_bad_light_field(lf, word, call):
 BAD_MASKS = {
     "wrong shape": (np.ones((31, 32), np.uint8), "size|shape"),
     "transposed": (np.ones((32, 16), np.uint8), "size|shape"),
-    "3-D": (np.ones((32, 32, 1), np.uint8), "2-D"),
+    "2 channels": (np.ones((32, 32, 2), np.uint8), r"\(V, U\)"),
+    "4-D": (np.ones((1, 32, 32, 1), np.uint8), r"\(V, U\)"),
     "float32": (np.ones((32, 32), np.float32), "uint8"),
     "int16": (np.ones((32, 32), np.int16), "uint8"),
     "int64": (np.ones((32, 32), np.int64), "uint8"),

@@ -1,5 +1,6 @@
 """Masks restrict where keypoints are; nfeatures keeps the strongest."""
 
+import cv2
 import numpy as np
 import pytest
 
@@ -57,10 +58,26 @@ def test_empty_and_full_masks(detector, blob_lf):
     )
 
 
+def test_single_channel_3d_mask_as_cv2_sift(detector, blob_lf, texture_image):
+    """A mask of shape (V, U, 1) is a one-channel image, as cv2.SIFT takes it."""
+    mask = rect_mask(blob_lf.shape[2:], 20, 70, 10, 55, np.uint8)
+    assert_same_keypoints(detector.detect(blob_lf, mask[:, :, None]), detector.detect(blob_lf, mask))
+    mask2 = rect_mask(texture_image.shape, 0, 80, 0, 160, np.uint8)
+    assert_same_keypoints(detector.detect(texture_image, mask2[:, :, None]),
+                          detector.detect(texture_image, mask2))
+    assert len(cv2.SIFT.create().detect(texture_image, mask2[:, :, None])) > 0
+
+
 def test_mask_on_2d_image(detector, texture_image):
     mask = rect_mask(texture_image.shape, 0, 80, 0, 160, np.uint8)
     kps = detector.detect(texture_image, mask)
     assert len(kps) > 0 and all(inside(mask, kps))
+
+
+def best_with_ties(responses, n):
+    """cv2.KeyPointsFilter.retainBest's rule: the n strongest and all tied with the n-th."""
+    bar = sorted(responses, reverse=True)[n - 1]
+    return sorted((r for r in responses if r >= bar), reverse=True)
 
 
 @pytest.mark.parametrize("n", [1, 2, 5, 17])
@@ -68,13 +85,30 @@ def test_nfeatures_keeps_the_strongest(blob_lf, n):
     all_k = liff.LiFF.create().detect(blob_lf)
     assert len(all_k) > n
     kps, desc = liff.LiFF.create(nfeatures=n).detectAndCompute(blob_lf)
-    assert len(kps) == n and desc.shape == (n, 128)
-    responses = sorted((k.response for k in all_k), reverse=True)
+    assert len(kps) >= n and desc.shape == (len(kps), 128)
     kept = sorted((k.response for k in kps), reverse=True)
-    assert kept == responses[:n]
-    # the kept keypoints are unchanged members of the full set
-    full = {kp_fields(k) for k in all_k}
-    assert all(kp_fields(k) in full for k in kps)
+    assert kept == best_with_ties([k.response for k in all_k], n)
+    # the kept keypoints are unchanged members of the full set, in the same order
+    assert_same_keypoints(kps, [k for k in all_k if k.response >= kept[-1]])
+
+
+def test_nfeatures_keeps_every_orientation_of_a_tie_as_cv2_sift():
+    """A round blob's extremum has several orientations, one keypoint each with equal
+    responses: cv2.SIFT keeps all of them at nfeatures=1, and so does LiFF (it used to
+    keep one). (Which orientations a nearly flat histogram gives can differ between
+    the two by one peak at the 80% bar; the count of a tie is what is compared here.)"""
+    yy, xx = np.mgrid[0:96, 0:96]
+    image = (60 + 150 * np.exp(-((xx - 47.0) ** 2 + (yy - 47.0) ** 2) / (2 * 6.0 ** 2)))
+    image = np.round(image).astype(np.uint8)
+    sift_all = cv2.SIFT.create().detect(image, None)
+    sift = cv2.SIFT.create(nfeatures=1).detect(image, None)
+    best = max(k.response for k in sift_all)
+    assert len(sift) == sum(k.response == best for k in sift_all) > 1
+    ours_all = liff.LiFF.create().detect(image)
+    ours = liff.LiFF.create(nfeatures=1).detect(image)
+    best = max(k.response for k in ours_all)
+    assert_same_keypoints(ours, [k for k in ours_all if k.response == best])
+    assert len(ours) == len(sift)
 
 
 def test_nfeatures_larger_than_available(blob_lf):
@@ -88,16 +122,16 @@ def test_nfeatures_with_mask(blob_lf):
     mask = rect_mask(blob_lf.shape[2:], 0, 48, 0, 96, np.uint8)
     masked = liff.LiFF.create().detect(blob_lf, mask)
     kps = liff.LiFF.create(nfeatures=3).detect(blob_lf, mask)
-    assert len(kps) == min(3, len(masked))
+    assert len(masked) > 3
     assert all(inside(mask, kps))
-    best = sorted((k.response for k in masked), reverse=True)[:3]
-    assert sorted((k.response for k in kps), reverse=True) == best
+    assert sorted((k.response for k in kps), reverse=True) == best_with_ties(
+        [k.response for k in masked], 3)
 
 
 def test_set_nfeatures_after_creation(blob_lf):
     d = liff.LiFF.create()
     n_all = len(d.detect(blob_lf))
     d.setNFeatures(4)
-    assert len(d.detect(blob_lf)) == 4
+    assert len(d.detect(blob_lf)) == len(liff.LiFF.create(nfeatures=4).detect(blob_lf)) >= 4
     d.setNFeatures(0)
     assert len(d.detect(blob_lf)) == n_all

@@ -18,7 +18,8 @@ namespace py = pybind11;
 /// Raises ValueError naming the expected shapes and dtypes.
 cv::Mat lightFieldMat(const py::array& array);
 
-/// Wraps an optional 2-D uint8 mask (None -> empty Mat). Raises ValueError.
+/// Wraps an optional uint8 mask of shape (V, U) or (V, U, 1) (None -> empty Mat).
+/// Raises ValueError.
 cv::Mat maskMat(const py::object& mask);
 
 /// (N, 7) float64 rows x, y, size, angle, response, octave, class_id <-> keypoints.
@@ -27,8 +28,6 @@ py::array_t<double> keypointsToArray(const std::vector<cv::KeyPoint>& keypoints)
 
 /// Copies a 2-D CV_32F or CV_8U Mat with `cols` columns into a new numpy array.
 py::array matToArray(const cv::Mat& mat, int cols);
-
-void BindArrays(py::module_& m);
 
 }  // namespace python
 }  // namespace liff

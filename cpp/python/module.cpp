@@ -1,23 +1,17 @@
 // liff._core: the compiled part of the liff package.
-#include "arrays.hpp"
+#include "bindings.hpp"
 
 #include <liff/liff.hpp>
 
-namespace liff {
-namespace python {
-void BindLiFF(py::module_& m);
-}  // namespace python
-}  // namespace liff
+#include <string>
 
 PYBIND11_MODULE(_core, m) {
-  namespace py = pybind11;
-  using namespace pybind11::literals;
   m.doc() = "Compiled core of liff (C++17, linked to the system OpenCV).";
   m.attr("SLOPE_SCALE") = liff::kSlopeScale;
 
   // Argument errors from the core become ValueError, a light field too large for the
   // memory limit MemoryError; anything else RuntimeError.
-  py::register_exception_translator([](std::exception_ptr p) {
+  pybind11::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const cv::Exception& e) {
@@ -32,6 +26,9 @@ PYBIND11_MODULE(_core, m) {
     }
   });
 
-  liff::python::BindArrays(m);
+  liff::python::BindParameters(m);
   liff::python::BindLiFF(m);
+  liff::python::BindThreads(m);
+  liff::python::BindVersion(m);
+  liff::python::BindProfiling(m);
 }

@@ -1,12 +1,13 @@
 #include "descriptor.hpp"
 
+#include "extrema.hpp"
 #include "hot_loop.hpp"
+#include "scale_space.hpp"
 
 #include <opencv2/core/hal/hal.hpp>
 
-#include <climits>
-
 #include <cfloat>
+#include <climits>
 #include <cmath>
 #include <vector>
 
@@ -244,6 +245,23 @@ void finishDescriptor(float* raw, bool rootSift, cv::Mat row) {
     uchar* out = row.ptr<uchar>();
     for (int k = 0; k < len; ++k) out[k] = cv::saturate_cast<uchar>(raw[k] * kDescriptorIntScale);
   }
+}
+
+void describeKeypoint(const ScaleSpace& space, const cv::KeyPoint& kp, bool rootSift,
+                      cv::Mat row) {
+  int o = 0, layer = 0;
+  CV_Assert(unpackOctave(kp, space.octaves, space.layers, o, layer));
+  const cv::Point2f pt(viewToOctave(kp.pt.x, o), viewToOctave(kp.pt.y, o));
+  // Scale in octave pixels: size is a diameter in view pixels.
+  const float scale = kp.size * 0.5f / std::ldexp(1.f, o + kFirstOctave);
+  // Descriptor rotation, reduced to [0, 360) whatever angle the keypoint carries
+  // (cv2.KeyPoint's default is -1).
+  float angle = std::fmod(360.f - kp.angle, 360.f);
+  if (angle < 0.f) angle += 360.f;
+  if (!(angle < 360.f) || std::abs(angle - 360.f) < FLT_EPSILON) angle = 0.f;
+  float raw[kDescriptorSize];
+  rawDescriptor(space.gaussian(o, layer), pt, angle, scale, raw);
+  finishDescriptor(raw, rootSift, row);
 }
 
 }  // namespace detail

@@ -44,5 +44,14 @@ void rawDescriptor(const cv::Mat& image, cv::Point2f point, float angleDegrees, 
 /// [0, 255] into `row` (CV_32F or CV_8U, kDescriptorSize columns).
 void finishDescriptor(float* raw, bool rootSift, cv::Mat row);
 
+struct ScaleSpace;
+
+/// The descriptor of `keypoint` (centre-view pixels, octave packed as cv::SIFT, size a
+/// diameter, angle in degrees; any angle is reduced to [0, 360)) on the Gaussian image
+/// of its octave and layer in `space`, finished (finishDescriptor) into `row`. The
+/// keypoint's octave and layer must exist in `space`.
+void describeKeypoint(const ScaleSpace& space, const cv::KeyPoint& keypoint, bool rootSift,
+                      cv::Mat row);
+
 }  // namespace detail
 }  // namespace liff

@@ -73,17 +73,6 @@ std::vector<float> insideWeight(const std::vector<Shift>& shifts, int n) {
 
 }  // namespace
 
-std::vector<double> slopeGrid(double first, double last, int n) {
-  std::vector<double> slopes;
-  if (n == 1) {
-    slopes.push_back(0.5 * (first + last));
-    return slopes;
-  }
-  for (int i = 0; i < n; ++i) slopes.push_back(first + (last - first) * i / double(n - 1));
-  slopes.back() = last;  // the formula can round one ulp past `last`
-  return slopes;
-}
-
 cv::Vec2d interpolationVariance(int T, int S, double slope) {
   auto meanVariance = [slope](int n) {
     double sum = 0;

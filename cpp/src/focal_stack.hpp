@@ -1,4 +1,4 @@
-// Focal stack by shift-and-sum of all views (paper eq. FocalStack), bilinear and
+// Focal stack by shift-and-sum of all views (paper Sec. 3.2, eq. 8), bilinear and
 // normalised by the weight of the samples that fall inside each view.
 #pragma once
 
@@ -9,9 +9,6 @@
 
 namespace liff {
 namespace detail {
-
-/// The slopes linspace(first, last, n); n == 1 gives the midpoint (first + last) / 2.
-std::vector<double> slopeGrid(double first, double last, int n);
 
 /// Renders the focal slice of each slope m = slopes[k] (pixels per view step) into
 /// *slices[k] (CV_32F, V x U):

@@ -7,12 +7,14 @@ pixel column, channel) instead of an image. Keypoints and descriptors are what
 disparity) is in ``class_id`` and read with :func:`keypoint_slopes`.
 """
 
-from ._core import SLOPE_SCALE, getNumThreads, opencvVersion, setNumThreads
-from ._detector import LiFF, LiFF_create, keypoint_slopes
+from ._core import getNumThreads, opencvVersion, setNumThreads
+from ._detector import PARAMETERS, LiFF, LiFF_create
+from .keypoint_rows import SLOPE_SCALE, keypoint_slopes
 
 __all__ = [
     "LiFF",
     "LiFF_create",
+    "PARAMETERS",
     "SLOPE_SCALE",
     "keypoint_slopes",
     "setNumThreads",
@@ -23,8 +25,8 @@ __version__ = "0.1.0"
 
 # Submodules load on first use (``import liff; liff.io.read_light_field(...)`` works
 # without paying for readers, plotting or pycolmap at ``import liff``).
-_SUBMODULES = frozenset({"baselines", "captures", "colmap", "demo", "feature_file", "io",
-                         "matching", "plot", "preprocess", "scoring", "synthetic"})
+_SUBMODULES = frozenset({"captures", "colmap", "demo", "feature_file", "io", "keypoint_rows",
+                         "matching", "plot", "preprocess", "synthetic"})
 
 
 def __getattr__(name):

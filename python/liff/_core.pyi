@@ -1,29 +1,27 @@
-"""Type stubs for the compiled module liff._core (see liff.LiFF for the public API)."""
+"""Type stubs for the compiled module liff._core (see liff.LiFF for the public API).
 
-from typing import List, Optional, Tuple
+tests/test_api.py checks these against the module: every function, method and
+attribute here exists there and the other way round, and each parameter of
+PARAMETERS has its getter and setter.
+"""
+
+from typing import Dict, List, Optional, Tuple, Union
 
 import numpy as np
 
 SLOPE_SCALE: float
+# (name, type name, default, getter/setter suffix, help), in create()'s order
+PARAMETERS: Tuple[Tuple[str, str, Union[int, float, bool], str, str], ...]
 
 def setNumThreads(nthreads: int) -> None: ...
 def getNumThreads() -> int: ...
 def opencvVersion() -> str: ...
+def _set_profiling(enabled: bool) -> None: ...
+def _reset_profile() -> None: ...
+def _stage_seconds() -> Dict[str, float]: ...
 
 class LiFF:
-    def __init__(
-        self,
-        nfeatures: int = 0,
-        nOctaveLayers: int = 3,
-        contrastThreshold: float = 0.04,
-        edgeThreshold: float = 10.0,
-        sigma: float = 1.6,
-        firstSlope: float = -1.0,
-        lastSlope: float = 1.0,
-        numSlopes: int = 0,
-        descriptorType: int = 5,
-        rootSift: bool = False,
-    ) -> None: ...
+    def __init__(self, **parameters: Union[int, float, bool]) -> None: ...
     def getNFeatures(self) -> int: ...
     def setNFeatures(self, value: int) -> None: ...
     def getNOctaveLayers(self) -> int: ...

@@ -2,17 +2,47 @@
 
 from __future__ import annotations
 
+import inspect
 import os
-from typing import Optional, Sequence, Tuple, Union
+import textwrap
+from typing import NamedTuple, Optional, Tuple, Union
 
 import cv2
 import numpy as np
 
 from . import _core
+from .keypoint_rows import KeyPoints, keypoints_to_rows, rows_to_keypoints
 
-SLOPE_SCALE = _core.SLOPE_SCALE
 
-KeyPoints = Tuple[cv2.KeyPoint, ...]
+class Parameter(NamedTuple):
+    """One detector parameter, as defined once in C++ (``liff/parameters.hpp``)."""
+
+    name: str     # create() keyword, OpenCV's spelling
+    type: type    # int, float or bool
+    default: object
+    accessor: str  # getter/setter suffix: get<accessor>(), set<accessor>(value)
+    help: str     # meaning, unit and range
+
+
+PARAMETERS: Tuple[Parameter, ...] = tuple(
+    Parameter(name, {"int": int, "float": float, "bool": bool}[kind], default, accessor, text)
+    for name, kind, default, accessor, text in _core.PARAMETERS)
+"""Every detector parameter, in ``create()``'s positional order."""
+
+_SIGNATURE = inspect.Signature([
+    inspect.Parameter(p.name, inspect.Parameter.POSITIONAL_OR_KEYWORD, default=p.default,
+                      annotation=p.type.__name__) for p in PARAMETERS])
+
+
+def _parameters_docstring() -> str:
+    """The numpydoc Parameters section of :class:`LiFF`, from :data:`PARAMETERS`."""
+    lines = ["Parameters", "----------"]
+    for p in PARAMETERS:
+        default = "cv2.CV_32F" if p.name == "descriptorType" else repr(p.default)
+        lines.append(f"{p.name} : {p.type.__name__}, default {default}")
+        lines += textwrap.wrap(f"{p.help[0].upper()}{p.help[1:]}.", 80, initial_indent="    ",
+                               subsequent_indent="    ")
+    return "\n".join("    " + line if line else line for line in lines)
 
 
 def _as_light_field(lf) -> np.ndarray:
@@ -38,22 +68,6 @@ def _as_mask(mask) -> Optional[np.ndarray]:
     return mask if mask.flags.c_contiguous else np.ascontiguousarray(mask)
 
 
-def _keypoints_to_rows(keypoints) -> np.ndarray:
-    rows = []
-    for i, k in enumerate(keypoints):
-        if not isinstance(k, cv2.KeyPoint):
-            raise TypeError(f"keypoints[{i}] is {type(k).__name__}; expected cv2.KeyPoint")
-        rows.append((k.pt[0], k.pt[1], k.size, k.angle, k.response, k.octave, k.class_id))
-    return np.asarray(rows, dtype=np.float64).reshape(-1, 7)
-
-
-def _rows_to_keypoints(rows: np.ndarray) -> KeyPoints:
-    return tuple(
-        cv2.KeyPoint(x, y, size, angle, response, int(octave), int(class_id))
-        for x, y, size, angle, response, octave, class_id in rows.tolist()
-    )
-
-
 def _copy_scalars(node: "cv2.FileNode", fs: "cv2.FileStorage") -> None:
     """Writes the string, int and real entries of the map ``node`` into ``fs``."""
     for key in node.keys():
@@ -66,49 +80,10 @@ def _copy_scalars(node: "cv2.FileNode", fs: "cv2.FileStorage") -> None:
             fs.write(key, child.real())
 
 
-def keypoint_slopes(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
-    """Slopes of LiFF keypoints.
-
-    Parameters
-    ----------
-    keypoints : sequence of cv2.KeyPoint
-        Keypoints from :class:`LiFF`; the slope is stored in ``class_id`` as
-        ``round(slope * SLOPE_SCALE)`` with ``SLOPE_SCALE = 65536``.
-
-    Returns
-    -------
-    slopes : ndarray of float64, shape (N,)
-        Pixels per view step: a point at (x, y) in the centre view appears at
-        ``(x - slope*(s - s_c), y - slope*(t - t_c))`` in view (t, s).
-    """
-    return np.fromiter((k.class_id for k in keypoints), dtype=np.float64) / SLOPE_SCALE
-
-
 class LiFF(_core.LiFF):
     """Light field features in scale and depth, a drop-in for ``cv2.SIFT``.
 
-    Parameters
-    ----------
-    nfeatures : int, default 0
-        Keep the ``nfeatures`` strongest features by response (0 keeps all).
-    nOctaveLayers : int, default 3
-        DoG layers per octave, as ``cv2.SIFT``.
-    contrastThreshold : float, default 0.04
-        As ``cv2.SIFT``: a feature needs DoG contrast >= contrastThreshold / nOctaveLayers
-        on intensities in [0, 1].
-    edgeThreshold : float, default 10
-        Maximum ratio of principal curvatures, as ``cv2.SIFT``.
-    sigma : float, default 1.6
-        Gaussian sigma of the base octave, as ``cv2.SIFT``.
-    firstSlope, lastSlope : float, default -1, 1
-        Range of slopes (pixels per view step) of the focal stack.
-    numSlopes : int, default 0
-        Number of slopes in ``linspace(firstSlope, lastSlope, numSlopes)``; 0 picks the
-        smallest odd number >= max(T, S).
-    descriptorType : int, default cv2.CV_32F
-        ``cv2.CV_32F`` or ``cv2.CV_8U``; values are SIFT's integers in [0, 255] either way.
-    rootSift : bool, default False
-        RootSIFT normalisation (L1, then square root), which the paper found better for SfM.
+    {parameters}
 
     Notes
     -----
@@ -118,36 +93,47 @@ class LiFF(_core.LiFF):
     or float64 (taken as given, nominally in [0, 1]). An alpha channel is a per-sample
     validity weight ``a >= 0`` (e.g. a Lytro lenslet image's vignetting mask): the
     focal stack becomes ``sum(a L) / sum(a)``. A 2-D image ``(V, U)`` or ``(V, U, C)``
-    is a 1x1 light field, for which LiFF behaves as SIFT.
+    is a 1x1 light field, for which LiFF behaves as SIFT. Slopes are in pixels per view
+    step with the sign of HCI disparity; docs/CONVENTIONS.md has every convention.
+
+    The method is the paper's (below): a focal stack over the slopes (Sec. 3.2, eq. 8),
+    SIFT's DoG scale space of each focal slice, extrema over all 80 neighbours in
+    (x, y, scale, slope) (Sec. 3.1), and each descriptor on the slice of its slope
+    (Sec. 3.3). What liff adds or changes is in the README's *How it works*.
+
+    References
+    ----------
+    .. [1] D. G. Dansereau, B. Girod and G. Wetzstein, "LiFF: Light Field Features in
+       Scale and Depth", CVPR 2019. arXiv:1901.03916, doi:10.48550/arXiv.1901.03916.
+    .. [2] D. G. Lowe, "Distinctive Image Features from Scale-Invariant Keypoints", IJCV
+       60(2), 2004, doi:10.1023/B:VISI.0000029664.99615.94.
+
+    Examples
+    --------
+    >>> import cv2, liff
+    >>> from liff import synthetic
+    >>> shape = (5, 5, 96, 96)  # (T, S, V, U)
+    >>> blobs = synthetic.random_blob_layers([-0.5, 0.5], shape, blobs_per_layer=4, seed=0)
+    >>> lf = synthetic.render_disks(blobs, shape, profile="gaussian")
+    >>> detector = liff.LiFF.create()  # was: cv2.SIFT.create()
+    >>> keypoints, descriptors = detector.detectAndCompute(lf)
+    >>> descriptors.shape[1], descriptors.dtype
+    (128, dtype('float32'))
+    >>> slopes = liff.keypoint_slopes(keypoints)  # one per keypoint, pixels per view step
+    >>> bool(abs(sorted(slopes)[0] + 0.5) < 0.1 and abs(sorted(slopes)[-1] - 0.5) < 0.1)
+    True
     """
 
+    def __init__(self, *args, **kwargs) -> None:
+        """Creates a detector; arguments as :meth:`create`."""
+        super().__init__(**_bind(args, kwargs))
+
     @classmethod
-    def create(
-        cls,
-        nfeatures: int = 0,
-        nOctaveLayers: int = 3,
-        contrastThreshold: float = 0.04,
-        edgeThreshold: float = 10,
-        sigma: float = 1.6,
-        firstSlope: float = -1,
-        lastSlope: float = 1,
-        numSlopes: int = 0,
-        descriptorType: int = cv2.CV_32F,
-        rootSift: bool = False,
-    ) -> "LiFF":
-        """Creates a detector (keywords as the class). Raises ValueError if out of range."""
-        return cls(
-            nfeatures=nfeatures,
-            nOctaveLayers=nOctaveLayers,
-            contrastThreshold=contrastThreshold,
-            edgeThreshold=edgeThreshold,
-            sigma=sigma,
-            firstSlope=firstSlope,
-            lastSlope=lastSlope,
-            numSlopes=numSlopes,
-            descriptorType=descriptorType,
-            rootSift=rootSift,
-        )
+    def create(cls, *args, **kwargs) -> "LiFF":
+        """Creates a detector: positional arguments in cv2.SIFT's order, then LiFF's
+        (see the class's Parameters). Raises TypeError for an unknown keyword or a value
+        of the wrong type, ValueError for one out of range."""
+        return cls(*args, **kwargs)
 
     def detect(self, lf, mask=None) -> KeyPoints:
         """Detects keypoints.
@@ -167,7 +153,7 @@ class LiFF(_core.LiFF):
             ``class_id`` (see :func:`keypoint_slopes`).
         """
         rows, _ = self._run(_as_light_field(lf), _as_mask(mask), None, False)
-        return _rows_to_keypoints(rows)
+        return rows_to_keypoints(rows)
 
     def compute(self, lf, keypoints, descriptors=None) -> Tuple[KeyPoints, Optional[np.ndarray]]:
         """Describes the given keypoints, each on the focal slice nearest its slope.
@@ -180,9 +166,9 @@ class LiFF(_core.LiFF):
         keypoints : tuple of cv2.KeyPoint
         descriptors : ndarray, shape (N, 128), float32 (or uint8), or None if N == 0
         """
-        rows = _keypoints_to_rows(keypoints)
+        rows = keypoints_to_rows(keypoints)
         rows, desc = self._run(_as_light_field(lf), None, rows, True)
-        return _rows_to_keypoints(rows), (desc if len(rows) else None)
+        return rows_to_keypoints(rows), (desc if len(rows) else None)
 
     def detectAndCompute(
         self, lf, mask=None, descriptors=None, useProvidedKeypoints: bool = False
@@ -203,7 +189,7 @@ class LiFF(_core.LiFF):
         if useProvidedKeypoints:
             raise ValueError("useProvidedKeypoints=True: call compute(lf, keypoints) instead")
         rows, desc = self._run(_as_light_field(lf), _as_mask(mask), None, True)
-        return _rows_to_keypoints(rows), (desc if len(rows) else None)
+        return rows_to_keypoints(rows), (desc if len(rows) else None)
 
     # --- persistence, as cv2.Feature2D -----------------------------------------
     def save(self, filename: Union[str, os.PathLike]) -> None:
@@ -252,14 +238,26 @@ class LiFF(_core.LiFF):
         self._from_string(copy.releaseAndGetString())
 
     def __repr__(self) -> str:
-        return (
-            f"LiFF(nfeatures={self.getNFeatures()}, nOctaveLayers={self.getNOctaveLayers()}, "
-            f"contrastThreshold={self.getContrastThreshold()}, "
-            f"edgeThreshold={self.getEdgeThreshold()}, sigma={self.getSigma()}, "
-            f"firstSlope={self.getFirstSlope()}, lastSlope={self.getLastSlope()}, "
-            f"numSlopes={self.getNumSlopes()}, descriptorType={self.getDescriptorType()}, "
-            f"rootSift={self.getRootSift()})"
-        )
+        values = ", ".join(f"{p.name}={getattr(self, 'get' + p.accessor)()!r}" for p in PARAMETERS)
+        return f"LiFF({values})"
 
 
+def _bind(args: tuple, kwargs: dict) -> dict:
+    """create()'s arguments as keywords (TypeError for too many, unknown or repeated)."""
+    try:
+        bound = _SIGNATURE.bind(*args, **kwargs)
+    except TypeError as error:
+        names = ", ".join(p.name for p in PARAMETERS)
+        raise TypeError(f"LiFF.create: {error}; expected at most {len(PARAMETERS)} arguments "
+                        f"({names})") from None
+    return dict(bound.arguments)
+
+
+LiFF.__doc__ = LiFF.__doc__.format(parameters=_parameters_docstring().strip())
+# (Signatures of the functions themselves: inspect drops the first, self or cls, when
+# they are bound.)
+LiFF.__init__.__signature__ = _SIGNATURE.replace(parameters=[
+    inspect.Parameter("self", inspect.Parameter.POSITIONAL_ONLY), *_SIGNATURE.parameters.values()])
+LiFF.create.__func__.__signature__ = _SIGNATURE.replace(parameters=[
+    inspect.Parameter("cls", inspect.Parameter.POSITIONAL_ONLY), *_SIGNATURE.parameters.values()])
 LiFF_create = LiFF.create

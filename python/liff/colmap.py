@@ -4,7 +4,7 @@ The pipeline: :func:`write_database` stores images with their keypoints and SIFT
 descriptors in a fresh COLMAP database, :func:`match` matches every pair exhaustively
 and verifies each pair geometrically, :func:`reconstruct` runs COLMAP's incremental
 mapper, and :func:`table_metrics` computes the columns of the paper's SfM table
-(Dansereau et al., CVPR 2019, Table 2, after Schoenberger et al., CVPR 2017). Needs
+(Dansereau et al., CVPR 2019, Table 1, after Schoenberger et al., CVPR 2017). Needs
 ``pip install liff[sfm]`` (pycolmap >= 4).
 
 Conventions crossed here:
@@ -178,7 +178,7 @@ def root_sift(descriptors: Optional[np.ndarray]) -> np.ndarray:
     return np.clip(np.round(512 * np.sqrt(d / l1)), 0, 255).astype(np.uint8)
 
 
-def _as_uint8_image(image: np.ndarray) -> np.ndarray:
+def grey_uint8_image(image: np.ndarray) -> np.ndarray:
     """A grey uint8 copy of a grey or BGR image (uint8, uint16 or float in [0, 1]), as
     :func:`liff.plot.to_display` scales it; what COLMAP's images are."""
     image = np.asarray(image)
@@ -266,7 +266,7 @@ def write_database(
         if os.path.splitext(name)[1].lower() not in IMAGE_SUFFIXES:
             raise ValueError(f"image name '{name}' has no image ending; expected one of "
                              f"{', '.join(IMAGE_SUFFIXES)}")
-    grey = [_as_uint8_image(im.image) for im in images]
+    grey = [grey_uint8_image(im.image) for im in images]
     if len({g.shape for g in grey}) != 1:
         raise ValueError(f"images differ in size: {sorted({g.shape for g in grey})}")
     features = [(keypoints_to_colmap(im.keypoints), descriptors_to_colmap(im.descriptors, len(im.keypoints)))
@@ -383,7 +383,7 @@ def reconstruct(database_path: PathLike, image_dir: PathLike, out_dir: PathLike,
 def table_metrics(database_path: PathLike, result: Optional[SfmResult] = None) -> dict:
     """The paper's SfM table columns for one scene (one database and its reconstruction).
 
-    Definitions (the paper, Sec. 5.3, after Schoenberger et al. 2017); a "match" is one
+    Definitions (the paper, Sec. 4.3 and Table 1, after Schoenberger et al. 2017); a "match" is one
     correspondence between two images, counted once per image pair:
 
     - ``keypoints_per_image``: keypoints in the database / images.

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 
 from . import synthetic
-from ._detector import LiFF, keypoint_slopes
+from ._detector import LiFF
 from .plot import draw_keypoints_by_slope
 
 DEMO_SHAPE = (9, 9, 192, 192)
@@ -39,31 +39,10 @@ def demo_light_field(noise_variance: float = 1e-3, seed: int = 0):
     return lf.astype(np.float32), blobs
 
 
-def match_to_truth(keypoints, blobs, radius: float = 1.5):
-    """For each blob, the nearest keypoint within ``radius`` px: (found mask, slope errors)."""
-    if not keypoints:
-        return np.zeros(len(blobs), bool), np.array([])
-    pts = np.array([k.pt for k in keypoints])
-    slopes = keypoint_slopes(keypoints)
-    found, errors = [], []
-    for b in blobs:
-        d = np.hypot(pts[:, 0] - b.x, pts[:, 1] - b.y)
-        i = int(np.argmin(d))
-        found.append(d[i] <= radius)
-        if d[i] <= radius:
-            errors.append(slopes[i] - b.slope)
-    return np.array(found), np.array(errors)
-
-
-def count_spurious(keypoints, blobs, radius: float = 3.0) -> int:
-    """Keypoints farther than ``radius`` px from every blob centre."""
-    if not keypoints:
-        return 0
-    pts = np.array([k.pt for k in keypoints])
-    centres = np.array([(b.x, b.y) for b in blobs])
-    nearest = np.hypot(pts[:, None, 0] - centres[None, :, 0],
-                       pts[:, None, 1] - centres[None, :, 1]).min(axis=1)
-    return int((nearest > radius).sum())
+def match_to_truth(keypoints, blobs) -> synthetic.BlobMatch:
+    """The demo's counts: a blob is found within 1.5 px of its centre; a feature is
+    spurious beyond 3 px of every blob centre."""
+    return synthetic.match_blobs(keypoints, blobs, found_within=1.5, spurious_beyond=3.0)
 
 
 def run_demo(out_dir: str, noise_variance: float = 1e-3) -> int:
@@ -78,10 +57,10 @@ def run_demo(out_dir: str, noise_variance: float = 1e-3) -> int:
     sift_keypoints = cv2.SIFT.create().detect(
         np.clip(centre * 255 + 0.5, 0, 255).astype(np.uint8), None)
 
-    found, errors = match_to_truth(keypoints, blobs)
+    match = match_to_truth(keypoints, blobs)
     # cv2.SIFT's first-octave positions sit 0.25 px right/below; LiFF corrects that.
     sift_keypoints = [cv2.KeyPoint(k.pt[0] - 0.25, k.pt[1] - 0.25, k.size) for k in sift_keypoints]
-    sift_found, _ = match_to_truth(sift_keypoints, blobs)
+    sift_match = match_to_truth(sift_keypoints, blobs)
     picture = draw_keypoints_by_slope(centre, keypoints, slope_range=(-1.0, 1.0))
     path = os.path.join(out_dir, "features.png")
     cv2.imwrite(path, picture)
@@ -91,10 +70,11 @@ def run_demo(out_dir: str, noise_variance: float = 1e-3) -> int:
           f"behind a partial occluder")
     print(f"LiFF: {len(keypoints)} features in {elapsed:.2f} s, slopes "
           f"{', '.join(f'{s:+.2f}' for s in detector.slopesFor(T, S))}")
-    print(f"  blobs found (within 1.5 px): {found.sum()}/{len(blobs)}, spurious features "
-          f"(> 3 px from any blob): {count_spurious(keypoints, blobs)}")
-    print(f"  cv2.SIFT on the centre view: {sift_found.sum()}/{len(blobs)} found, "
-          f"{count_spurious(sift_keypoints, blobs)} spurious")
+    print(f"  blobs found (within 1.5 px): {match.found.sum()}/{len(blobs)}, spurious features "
+          f"(> 3 px from any blob): {match.spurious}")
+    print(f"  cv2.SIFT on the centre view: {sift_match.found.sum()}/{len(blobs)} found, "
+          f"{sift_match.spurious} spurious")
+    errors = match.slope_errors
     if len(errors):
         print(f"  slope error of found blobs: median |e| = {np.median(np.abs(errors)):.3f}, "
               f"max |e| = {np.abs(errors).max():.3f} px per view step")

@@ -22,7 +22,7 @@ from typing import Optional, Sequence, Tuple, Union
 import cv2
 import numpy as np
 
-from ._detector import SLOPE_SCALE, _keypoints_to_rows, _rows_to_keypoints, keypoint_slopes
+from .keypoint_rows import SLOPE_SCALE, keypoint_slopes, keypoints_to_rows, rows_to_keypoints
 from .plot import to_display
 
 PathLike = Union[str, os.PathLike]
@@ -69,7 +69,7 @@ def save_features(path: PathLike, features: Features) -> None:
         an (N, 128) array of numbers, or not one descriptor row per keypoint.
     """
     try:
-        rows = np.ascontiguousarray(_keypoints_to_rows(features.keypoints)[:, :6])  # no class_id
+        rows = np.ascontiguousarray(keypoints_to_rows(features.keypoints)[:, :6])  # no class_id
     except TypeError as error:
         raise ValueError(f"{os.fspath(path)}: {error}") from None
     descriptors = features.descriptors
@@ -121,7 +121,7 @@ def load_features(path: PathLike) -> Features:
     n = len(rows)
     # class_id: the slope packed as round(slope * SLOPE_SCALE), as the detector does
     class_ids = np.round(slopes.astype(np.float64) * SLOPE_SCALE)
-    keypoints = _rows_to_keypoints(np.column_stack([rows.astype(np.float64), class_ids]))
+    keypoints = rows_to_keypoints(np.column_stack([rows.astype(np.float64), class_ids]))
     return Features(keypoints, descriptors if n else None, view, meta)
 
 

@@ -7,7 +7,7 @@ from typing import Optional, Sequence, Tuple
 import cv2
 import numpy as np
 
-from ._detector import keypoint_slopes
+from .keypoint_rows import keypoint_slopes
 
 
 def to_display(image: np.ndarray) -> np.ndarray:

@@ -263,3 +263,56 @@ def textured_layers(
                 view += noise.normal(0, np.sqrt(noise_variance), (V, U)).astype(np.float32)
             lf[t, s] = np.clip(view, 0, 1)
     return LayeredScene(lf, slope_map)
+
+
+@dataclass
+class BlobMatch:
+    """Keypoints matched to a scene's blobs (see :func:`match_blobs`).
+
+    ``found`` (N,) bool: blob i has its nearest keypoint within reach; ``nearest`` (N,)
+    int: index of blob i's nearest keypoint (-1 without keypoints); ``slope_errors``
+    (found blobs,) float64: that keypoint's slope minus the blob's, in blob order;
+    ``spurious``: keypoints beyond reach of every blob."""
+
+    found: np.ndarray
+    nearest: np.ndarray
+    slope_errors: np.ndarray
+    spurious: int
+
+
+def match_blobs(keypoints, blobs: Sequence[Blob], found_within, spurious_beyond) -> BlobMatch:
+    """Matches keypoints to the blobs of a scene with known answers.
+
+    Parameters
+    ----------
+    keypoints : sequence of cv2.KeyPoint
+        From :class:`liff.LiFF` (the slope in ``class_id``) or any detector.
+    blobs : sequence of Blob
+    found_within : float or array of shape (N,)
+        Blob i counts as found when its nearest keypoint is at most this far from its
+        centre (pixels; one value, or one per blob).
+    spurious_beyond : float or array of shape (N,)
+        A keypoint is spurious when it is farther than this from every blob centre
+        (pixels; one value, or one per blob).
+
+    Returns
+    -------
+    BlobMatch
+    """
+    from .keypoint_rows import keypoint_slopes
+
+    centres = np.array([(b.x, b.y) for b in blobs], dtype=np.float64).reshape(-1, 2)
+    within = np.broadcast_to(np.asarray(found_within, dtype=np.float64), (len(blobs),))
+    beyond = np.broadcast_to(np.asarray(spurious_beyond, dtype=np.float64), (len(blobs),))
+    if len(keypoints) == 0 or len(blobs) == 0:
+        return BlobMatch(np.zeros(len(blobs), bool), np.full(len(blobs), -1), np.zeros(0),
+                         len(keypoints))
+    points = np.array([k.pt for k in keypoints], dtype=np.float64)
+    distance = np.hypot(points[:, None, 0] - centres[None, :, 0],
+                        points[:, None, 1] - centres[None, :, 1])  # (keypoints, blobs)
+    nearest = distance.argmin(axis=0)
+    found = distance[nearest, np.arange(len(blobs))] <= within
+    spurious = int((distance > beyond[None, :]).all(axis=1).sum())
+    truth = np.array([b.slope for b in blobs])
+    errors = keypoint_slopes(keypoints)[nearest[found]] - truth[found]
+    return BlobMatch(found, nearest, errors, spurious)

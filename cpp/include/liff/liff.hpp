@@ -23,6 +23,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>  // OpenCV 5 keeps this as a compatibility header
 
+#include <liff/parameters.hpp>
+
 namespace liff {
 
 /// Fixed-point scale of the slope stored in cv::KeyPoint::class_id.
@@ -35,45 +37,39 @@ double keypointSlope(const cv::KeyPoint& keypoint);
 int slopeToClassId(double slope);
 
 /// LiFF detector and descriptor: SIFT extended to the 4-D light field.
+///
+/// Every parameter of LIFF_PARAMETERS (liff/parameters.hpp) has a getter and a setter,
+/// getName() / setName(value) (getNFeatures, setContrastThreshold, ...); a setter
+/// throws cv::Exception (StsOutOfRange) naming the range expected.
 class CV_EXPORTS_W LiFF : public cv::Feature2D {
  public:
-  /// @param nfeatures          keep the best n features by response (0 = all)
-  /// @param nOctaveLayers      DoG layers per octave (as cv::SIFT)
-  /// @param contrastThreshold  as cv::SIFT: DoG contrast >= contrastThreshold / nOctaveLayers
-  /// @param edgeThreshold      principal-curvature ratio limit (as cv::SIFT)
-  /// @param sigma              Gaussian sigma of the base octave (as cv::SIFT)
-  /// @param firstSlope         first slope of the focal stack (pixels per view step)
-  /// @param lastSlope          last slope of the focal stack
-  /// @param numSlopes          slopes in linspace(firstSlope, lastSlope, numSlopes);
-  ///                           0 = automatic: the smallest odd number >= max(T, S)
-  /// @param descriptorType     CV_32F or CV_8U (as cv::SIFT)
-  /// @param rootSift           L1-normalise then square-root the descriptor (RootSIFT)
-  static cv::Ptr<LiFF> create(int nfeatures = 0, int nOctaveLayers = 3,
-                              double contrastThreshold = 0.04, double edgeThreshold = 10,
-                              double sigma = 1.6, double firstSlope = -1, double lastSlope = 1,
-                              int numSlopes = 0, int descriptorType = CV_32F,
-                              bool rootSift = false);
+  /// A detector with `parameters` (Parameters::check() applies).
+  static cv::Ptr<LiFF> create(const Parameters& parameters);
 
-  virtual void setNFeatures(int nfeatures) = 0;
-  virtual int getNFeatures() const = 0;
-  virtual void setNOctaveLayers(int nOctaveLayers) = 0;
-  virtual int getNOctaveLayers() const = 0;
-  virtual void setContrastThreshold(double contrastThreshold) = 0;
-  virtual double getContrastThreshold() const = 0;
-  virtual void setEdgeThreshold(double edgeThreshold) = 0;
-  virtual double getEdgeThreshold() const = 0;
-  virtual void setSigma(double sigma) = 0;
-  virtual double getSigma() const = 0;
-  virtual void setFirstSlope(double firstSlope) = 0;
-  virtual double getFirstSlope() const = 0;
-  virtual void setLastSlope(double lastSlope) = 0;
-  virtual double getLastSlope() const = 0;
-  virtual void setNumSlopes(int numSlopes) = 0;
-  virtual int getNumSlopes() const = 0;
-  virtual void setDescriptorType(int descriptorType) = 0;
-  virtual int getDescriptorType() const = 0;
-  virtual void setRootSift(bool rootSift) = 0;
-  virtual bool getRootSift() const = 0;
+  /// A detector with cv::SIFT's positional parameters followed by LiFF's (the
+  /// meaning, unit and range of each are in LIFF_PARAMETERS; the defaults are
+  /// Parameters').
+  static cv::Ptr<LiFF> create(int nfeatures = Parameters().nfeatures,
+                              int nOctaveLayers = Parameters().nOctaveLayers,
+                              double contrastThreshold = Parameters().contrastThreshold,
+                              double edgeThreshold = Parameters().edgeThreshold,
+                              double sigma = Parameters().sigma,
+                              double firstSlope = Parameters().firstSlope,
+                              double lastSlope = Parameters().lastSlope,
+                              int numSlopes = Parameters().numSlopes,
+                              int descriptorType = Parameters().descriptorType,
+                              bool rootSift = Parameters().rootSift);
+
+#define LIFF_DECLARE_ACCESSORS(Type, name, Name, value, help) \
+  virtual void set##Name(Type name) = 0;                       \
+  virtual Type get##Name() const = 0;
+  LIFF_PARAMETERS(LIFF_DECLARE_ACCESSORS)
+#undef LIFF_DECLARE_ACCESSORS
+
+  virtual Parameters getParameters() const = 0;
+  /// Sets every parameter at once; throws (leaving the detector unchanged) if one is
+  /// out of range.
+  virtual void setParameters(const Parameters& parameters) = 0;
 
   /// Memory detectAndCompute may use beyond its input, in megabytes (2^20 bytes).
   /// 0 (default) = automatic: the memory available when a call starts (Linux:

@@ -9,7 +9,7 @@ import shutil
 
 import numpy as np
 
-from .._detector import _keypoints_to_rows, _rows_to_keypoints
+from ..keypoint_rows import keypoints_to_rows, rows_to_keypoints
 from ..feature_file import centre_view, load_features
 from . import common
 from .match import is_feature_file
@@ -64,8 +64,8 @@ def features_for_colmap(path: str, options: dict, preprocess: bool, parameters: 
             light_field = colmap.prepare_light_field(light_field)
         keypoints, descriptors = common.make_detector(parameters).detectAndCompute(light_field, None)
         view = centre_view(light_field)
-    view = colmap._as_uint8_image(view)  # grey uint8, as COLMAP wants
-    return view, _keypoints_to_rows(keypoints), descriptors
+    view = colmap.grey_uint8_image(view)  # grey uint8, as COLMAP wants
+    return view, keypoints_to_rows(keypoints), descriptors
 
 
 def write(args: argparse.Namespace, database: str, image_dir: str) -> int:
@@ -90,7 +90,7 @@ def write(args: argparse.Namespace, database: str, image_dir: str) -> int:
         if result is None:
             continue
         view, rows, descriptors = result
-        images.append(colmap.FeatureImage(name, view, _rows_to_keypoints(rows), descriptors))
+        images.append(colmap.FeatureImage(name, view, rows_to_keypoints(rows), descriptors))
     if not images:
         raise ValueError("no input could be read; nothing written")
     os.makedirs(os.path.dirname(os.path.abspath(database)), exist_ok=True)

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Callable, Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .._detector import LiFF
+from .._detector import PARAMETERS, LiFF
 
 
 def add_reader_options(parser: argparse.ArgumentParser) -> None:
@@ -49,22 +50,29 @@ def reader_options(args: argparse.Namespace) -> dict:
     return options
 
 
+def option_name(parameter: str) -> str:
+    """The command-line flag of a create() keyword: ``contrastThreshold`` ->
+    ``--contrast-threshold``, ``nOctaveLayers`` -> ``--n-octave-layers``."""
+    return "--" + re.sub(r"(?<!^)(?=[A-Z])", "-", parameter).lower()
+
+
 def add_detector_options(parser: argparse.ArgumentParser) -> None:
+    """One option per detector parameter, from liff.PARAMETERS (defaults and help
+    included), so the command line always offers what create() takes."""
     group = parser.add_argument_group("detector (liff.LiFF.create parameters)")
-    group.add_argument("--first-slope", type=float, default=-1.0, help="default -1")
-    group.add_argument("--last-slope", type=float, default=1.0, help="default 1")
-    group.add_argument("--num-slopes", type=int, default=0,
-                       help="slopes in the focal stack (default 0: odd number >= views)")
-    group.add_argument("--contrast-threshold", type=float, default=0.04, help="default 0.04")
-    group.add_argument("--edge-threshold", type=float, default=10.0, help="default 10")
-    group.add_argument("--nfeatures", type=int, default=0, help="keep the best N (0 = all)")
-    group.add_argument("--root-sift", action="store_true", help="RootSIFT descriptors")
+    for p in PARAMETERS:
+        text = f"{p.help} (default {p.default})"
+        if p.type is bool:
+            group.add_argument(option_name(p.name), dest=p.name, default=p.default,
+                               action=argparse.BooleanOptionalAction, help=p.help)
+        else:
+            group.add_argument(option_name(p.name), dest=p.name, type=p.type, default=p.default,
+                               metavar=p.type.__name__.upper(), help=text.replace("%", "%%"))
 
 
 def detector_parameters(args: argparse.Namespace) -> dict:
-    return dict(nfeatures=args.nfeatures, contrastThreshold=args.contrast_threshold,
-                edgeThreshold=args.edge_threshold, firstSlope=args.first_slope,
-                lastSlope=args.last_slope, numSlopes=args.num_slopes, rootSift=args.root_sift)
+    """Every create() keyword with its value from the parsed options."""
+    return {p.name: getattr(args, p.name) for p in PARAMETERS}
 
 
 def make_detector(parameters: dict) -> LiFF:

@@ -1,7 +1,5 @@
 #include "arrays.hpp"
 
-#include "profile.hpp"
-
 #include <cfloat>
 #include <climits>
 #include <cmath>
@@ -75,10 +73,12 @@ cv::Mat maskMat(const py::object& mask) {
   if (!py::isinstance<py::array>(mask))
     throw py::value_error("mask must be a numpy uint8 array of shape (V, U) or None");
   const py::array a = mask.cast<py::array>();
-  if (cvDepthOf(a.dtype()) != CV_8U || a.ndim() != 2 || a.size() == 0)
+  // (V, U, 1) is a one-channel image too, as cv2.SIFT takes it.
+  const bool plane = a.ndim() == 2 || (a.ndim() == 3 && a.shape(2) == 1);
+  if (cvDepthOf(a.dtype()) != CV_8U || !plane || a.size() == 0)
     throw py::value_error("mask has dtype " + std::string(py::str(a.dtype())) + " and shape " +
-                          shapeOf(a) + "; expected a non-empty 2-D uint8 array of the centre "
-                          "view's shape (V, U), or None");
+                          shapeOf(a) + "; expected a non-empty uint8 array of the centre "
+                          "view's shape (V, U) or (V, U, 1), or None");
   requireContiguous(a, "the mask");
   return cv::Mat(int(a.shape(0)), int(a.shape(1)), CV_8UC1, const_cast<void*>(a.data()));
 }
@@ -128,33 +128,6 @@ py::array matToArray(const cv::Mat& mat, int cols) {
   for (py::ssize_t i = 0; i < rows; ++i)
     std::memcpy(out.mutable_data(i, 0), mat.ptr<uint8_t>(int(i)), cols);
   return std::move(out);
-}
-
-void BindArrays(py::module_& m) {
-  using namespace pybind11::literals;
-  m.def(
-      "setNumThreads", [](int n) { cv::setNumThreads(n); }, "nthreads"_a,
-      "Sets the number of threads of LiFF's core (the system OpenCV's parallel_for_).\n\n"
-      "cv2.setNumThreads does not reach it. Results do not depend on the count. A negative\n"
-      "value restores the default; 0 or 1 runs serially.");
-  m.def("getNumThreads", &cv::getNumThreads,
-        "Number of threads LiFF's core uses (see setNumThreads).");
-  m.def("_set_profiling", &detail::setProfiling, "enabled"_a,
-        "Benchmarks only: turn per-stage timing on or off (off by default).");
-  m.def("_reset_profile", &detail::resetProfile, "Benchmarks only: zero the stage timers.");
-  m.def(
-      "_stage_seconds",
-      [] {
-        const auto s = detail::stageSeconds();
-        py::dict d;
-        const char* names[] = {"focal_stack", "scale_space", "extrema", "refinement",
-                               "descriptors"};
-        for (int i = 0; i < detail::kStageCount; ++i) d[names[i]] = s[i];
-        return d;
-      },
-      "Benchmarks only: seconds per stage, summed over threads, since the last reset.");
-  m.def("opencvVersion", [] { return std::string(CV_VERSION); },
-        "Version of the system OpenCV the core was built against.");
 }
 
 }  // namespace python

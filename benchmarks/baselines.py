@@ -12,7 +12,7 @@ from typing import List, Sequence, Tuple
 import cv2
 import numpy as np
 
-from ._detector import SLOPE_SCALE, LiFF
+from liff import SLOPE_SCALE, LiFF
 
 
 def sift_on_views(lf: np.ndarray, detector: LiFF) -> List[Tuple[int, int, tuple]]:

@@ -1,4 +1,5 @@
-"""Scoring detections against synthetic scenes with known answers."""
+"""Scoring detections against synthetic scenes with known answers (the paper's noise
+experiment's rules), for benchmarks/noise.py and its tests."""
 
 from __future__ import annotations
 
@@ -8,8 +9,7 @@ from typing import Sequence
 import cv2
 import numpy as np
 
-from ._detector import keypoint_slopes
-from .synthetic import Blob
+from liff.synthetic import Blob, match_blobs
 
 
 @dataclass
@@ -29,19 +29,10 @@ class Score:
 
 def score_blobs(keypoints: Sequence[cv2.KeyPoint], blobs: Sequence[Blob]) -> Score:
     """Scores keypoints against the blobs of a synthetic scene (see :class:`Score`)."""
-    centres = np.array([(b.x, b.y) for b in blobs], dtype=np.float64).reshape(-1, 2)
     radii = np.array([b.radius for b in blobs], dtype=np.float64)
-    if len(keypoints) == 0:
-        return Score(np.zeros(len(blobs), bool), 0, np.zeros(0))
-    points = np.array([k.pt for k in keypoints], dtype=np.float64)
-    distance = np.hypot(points[:, None, 0] - centres[None, :, 0],
-                        points[:, None, 1] - centres[None, :, 1])  # (keypoints, blobs)
-    nearest = distance.argmin(axis=0)
-    found = distance[nearest, np.arange(len(blobs))] <= np.maximum(2.0, radii / 2)
-    false_positives = int((distance > radii[None, :] + 2.0).all(axis=1).sum())
-    slopes = keypoint_slopes(keypoints)
-    truth = np.array([b.slope for b in blobs])
-    return Score(found, false_positives, slopes[nearest[found]] - truth[found])
+    match = match_blobs(keypoints, blobs, found_within=np.maximum(2.0, radii / 2),
+                        spurious_beyond=radii + 2.0)
+    return Score(match.found, match.spurious, match.slope_errors)
 
 
 def above_threshold(keypoints: Sequence[cv2.KeyPoint], contrast_threshold: float,

@@ -1,0 +1,60 @@
+// Every parameter of the LiFF detector, defined once.
+//
+// LIFF_PARAMETERS lists each parameter as X(Type, name, Name, default, help):
+// `name` is the create() keyword (OpenCV's spelling), `Name` the getter/setter
+// suffix (getName, setName), `help` one line with its unit and range. From this
+// list come the Parameters struct below, LiFF's getters and setters, read()/write()
+// (FileStorage), the Python module's keywords, getters, setters and defaults
+// (liff._core.PARAMETERS), the Python create() and the `liff` command's options.
+// Ranges are enforced in one place, Parameters::check() (parameters.cpp).
+// Adding a parameter: one X line here, one check in check(), and its use.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#define LIFF_PARAMETERS(X)                                                                      \
+  X(int, nfeatures, NFeatures, 0,                                                               \
+    "keep the nfeatures strongest features by response, with every feature tied with the "      \
+    "last one (0 keeps all); >= 0")                                                             \
+  X(int, nOctaveLayers, NOctaveLayers, 3, "DoG layers per octave, as cv::SIFT; in [1, 32]")     \
+  X(double, contrastThreshold, ContrastThreshold, 0.04,                                         \
+    "as cv::SIFT: a feature needs DoG contrast >= contrastThreshold / nOctaveLayers on "        \
+    "intensities in [0, 1]; finite, >= 0")                                                      \
+  X(double, edgeThreshold, EdgeThreshold, 10.0,                                                 \
+    "largest ratio of principal curvatures, as cv::SIFT; finite, >= 1")                         \
+  X(double, sigma, Sigma, 1.6, "Gaussian sigma of the base octave, as cv::SIFT; in [0.01, 100]") \
+  X(double, firstSlope, FirstSlope, -1.0,                                                       \
+    "first slope of the focal stack, pixels per view step; finite, |slope| <= 1e4")             \
+  X(double, lastSlope, LastSlope, 1.0,                                                          \
+    "last slope of the focal stack, pixels per view step; finite, |slope| <= 1e4")              \
+  X(int, numSlopes, NumSlopes, 0,                                                               \
+    "slopes in linspace(firstSlope, lastSlope, numSlopes); 0: the smallest odd number >= "      \
+    "max(T, S); in [0, 4096]")                                                                  \
+  X(int, descriptorType, DescriptorType, CV_32F,                                                \
+    "descriptor element type, CV_32F (5) or CV_8U (0); SIFT's integers in [0, 255] either way") \
+  X(bool, rootSift, RootSift, false,                                                            \
+    "RootSIFT normalisation (L1, then square root), which the paper found better for SfM")
+
+namespace liff {
+
+/// The detector's parameters, with their defaults (see LIFF_PARAMETERS).
+struct Parameters {
+#define LIFF_PARAMETER_FIELD(Type, name, Name, value, help) Type name = value;
+  LIFF_PARAMETERS(LIFF_PARAMETER_FIELD)
+#undef LIFF_PARAMETER_FIELD
+
+  /// Throws cv::Exception (cv::Error::StsOutOfRange) naming the first parameter out
+  /// of its range and the range expected. Ranges that involve two parameters (slope
+  /// order) are checked when a light field's slopes are made, since setters change
+  /// one parameter at a time.
+  void check() const;
+};
+
+/// Writes `parameters` as one FileStorage entry per parameter, at the current level.
+void writeParameters(cv::FileStorage& fs, const Parameters& parameters);
+/// Reads the entries of `node` (a map) over `parameters`; absent entries keep their
+/// value. Throws cv::Exception (StsBadArg / StsOutOfRange) for an entry of the wrong
+/// type or out of range, leaving `parameters` unchanged.
+void readParameters(const cv::FileNode& node, Parameters& parameters);
+
+}  // namespace liff

@@ -1,0 +1,94 @@
+// The ranges of the detector's parameters (Parameters::check) and their FileStorage
+// form; the parameters themselves are listed once in liff/parameters.hpp.
+#include <liff/parameters.hpp>
+
+#include "slope_plan.hpp"
+
+#include <climits>
+#include <cmath>
+
+namespace liff {
+namespace {
+
+void require(bool ok, const cv::String& message) {
+  if (!ok) CV_Error(cv::Error::StsOutOfRange, "LiFF: " + message);
+}
+
+void checkSlope(const char* name, double v) {
+  require(std::isfinite(v) && std::abs(v) <= detail::kMaxAbsSlope,
+          cv::format("%s = %g; expected a finite value in [-%g, %g]", name, v,
+                     detail::kMaxAbsSlope, detail::kMaxAbsSlope));
+}
+
+// A FileStorage entry as a number, or an error naming the key.
+double number(const cv::FileNode& node, const char* key) {
+  if (!node.isInt() && !node.isReal())
+    CV_Error(cv::Error::StsBadArg,
+             cv::format("LiFF: read() found parameter '%s' of the wrong type; expected a number",
+                        key));
+  return node.isInt() ? double(int(node)) : double(node);
+}
+
+// Entry `key` of `fn` into `value` (kept when absent), with the type's rules.
+void readEntry(const cv::FileNode& fn, const char* key, int& value) {
+  const cv::FileNode node = fn[key];
+  if (node.empty()) return;
+  const double v = number(node, key);
+  if (v != std::floor(v) || std::abs(v) > INT_MAX)
+    CV_Error(cv::Error::StsBadArg,
+             cv::format("LiFF: read() found %s = %g; expected an integer", key, v));
+  value = int(v);
+}
+void readEntry(const cv::FileNode& fn, const char* key, double& value) {
+  const cv::FileNode node = fn[key];
+  if (!node.empty()) value = number(node, key);
+}
+void readEntry(const cv::FileNode& fn, const char* key, bool& value) {
+  const cv::FileNode node = fn[key];
+  if (!node.empty()) value = number(node, key) != 0;
+}
+
+void writeEntry(cv::FileStorage& fs, const char* key, int value) { fs << key << value; }
+void writeEntry(cv::FileStorage& fs, const char* key, double value) { fs << key << value; }
+// FileStorage has no boolean: 0 or 1, as OpenCV's own algorithms write them.
+void writeEntry(cv::FileStorage& fs, const char* key, bool value) { fs << key << int(value); }
+
+}  // namespace
+
+void Parameters::check() const {
+  require(nfeatures >= 0, cv::format("nfeatures = %d; expected >= 0 (0 keeps all)", nfeatures));
+  require(nOctaveLayers >= 1 && nOctaveLayers <= 32,
+          cv::format("nOctaveLayers = %d; expected in [1, 32]", nOctaveLayers));
+  require(std::isfinite(contrastThreshold) && contrastThreshold >= 0,
+          cv::format("contrastThreshold = %g; expected a finite value >= 0", contrastThreshold));
+  require(std::isfinite(edgeThreshold) && edgeThreshold >= 1,
+          cv::format("edgeThreshold = %g; expected a finite value >= 1", edgeThreshold));
+  require(std::isfinite(sigma) && sigma >= 0.01 && sigma <= 100,
+          cv::format("sigma = %g; expected a value in [0.01, 100]", sigma));
+  checkSlope("firstSlope", firstSlope);
+  checkSlope("lastSlope", lastSlope);
+  require(numSlopes >= 0 && numSlopes <= detail::kMaxSlopes,
+          cv::format("numSlopes = %d; expected in [0, %d] (0 = automatic)", numSlopes,
+                     detail::kMaxSlopes));
+  require(descriptorType == CV_32F || descriptorType == CV_8U,
+          cv::format("descriptorType = %d; expected CV_32F (%d) or CV_8U (%d)", descriptorType,
+                     CV_32F, CV_8U));
+}
+
+void writeParameters(cv::FileStorage& fs, const Parameters& p) {
+#define LIFF_WRITE_PARAMETER(Type, name, Name, value, help) writeEntry(fs, #name, p.name);
+  LIFF_PARAMETERS(LIFF_WRITE_PARAMETER)
+#undef LIFF_WRITE_PARAMETER
+}
+
+void readParameters(const cv::FileNode& fn, Parameters& parameters) {
+  if (!fn.isMap()) CV_Error(cv::Error::StsBadArg, "LiFF: read() expected a map of parameters");
+  Parameters next = parameters;  // everything is checked before `parameters` changes
+#define LIFF_READ_PARAMETER(Type, name, Name, value, help) readEntry(fn, #name, next.name);
+  LIFF_PARAMETERS(LIFF_READ_PARAMETER)
+#undef LIFF_READ_PARAMETER
+  next.check();
+  parameters = next;
+}
+
+}  // namespace liff

@@ -1,0 +1,49 @@
+// The slopes of the focal stack: which focal slices a call renders, and which of
+// them are searched for extrema.
+#pragma once
+
+#include <liff/parameters.hpp>
+
+#include <vector>
+
+namespace liff {
+namespace detail {
+
+/// Slopes beyond this many pixels per view step are surely a mistake.
+constexpr double kMaxAbsSlope = 1e4;
+/// More slopes than this is surely a mistake (each costs a full SIFT pass).
+constexpr int kMaxSlopes = 4096;
+
+/// The focal slices of one call, in increasing slope. Slice k sits at grid position
+/// grid[k]: slopes[k] = origin + grid[k] * step (up to rounding), so slices with
+/// consecutive grid positions are slope neighbours. A searched slice is compared
+/// with its neighbours in the 80-neighbour test; an unsearched one is rendered only
+/// as a neighbour. A searched slice without a neighbour on one side (the ends of an
+/// explicit range) skips that side.
+struct SlopePlan {
+  std::vector<double> slopes;
+  std::vector<int> grid;
+  std::vector<bool> searched;
+  double origin = 0;
+  double step = 0;  // 0 for a single slice
+
+  int size() const { return int(slopes.size()); }
+  /// Index of the slice nearest to `slope` on the grid (the slice a keypoint is
+  /// described on); -1 for an empty plan.
+  int nearest(double slope) const;
+  /// Whether slices k and k + 1 are neighbours on the grid.
+  bool adjacent(int k) const { return grid[k + 1] == grid[k] + 1; }
+};
+
+/// The slopes linspace(first, last, n); n == 1 gives the midpoint (first + last) / 2.
+std::vector<double> slopeGrid(double first, double last, int n);
+
+/// The uniform plan of `parameters` for T x S views: linspace(firstSlope, lastSlope,
+/// n), every slice searched; n = numSlopes, or for numSlopes = 0 the smallest odd
+/// number >= max(T, S) (the paper's rule); a single view has the one slope
+/// (firstSlope + lastSlope) / 2. Throws cv::Exception (StsOutOfRange) when the
+/// slopes are out of order or too many.
+SlopePlan uniformPlan(const Parameters& parameters, int T, int S);
+
+}  // namespace detail
+}  // namespace liff

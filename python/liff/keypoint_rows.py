@@ -1,0 +1,75 @@
+"""Keypoints as numeric rows, the form liff's core, feature files and COLMAP take.
+
+A row is ``(x, y, size, angle, response, octave, class_id)``: position in centre-view
+pixels (pixel centres at integers), ``size`` a diameter in pixels, ``angle`` in
+degrees, ``response`` the |DoG| contrast, ``octave`` packed as cv2.SIFT packs it, and
+``class_id = round(slope * SLOPE_SCALE)`` (docs/CONVENTIONS.md).
+"""
+
+from __future__ import annotations
+
+from typing import Sequence, Tuple
+
+import cv2
+import numpy as np
+
+from . import _core
+
+SLOPE_SCALE = _core.SLOPE_SCALE
+"""Fixed-point scale of the slope stored in ``cv2.KeyPoint.class_id`` (65536)."""
+
+ROW_FIELDS = ("x", "y", "size", "angle", "response", "octave", "class_id")
+"""Names of a row's columns, in order."""
+
+KeyPoints = Tuple[cv2.KeyPoint, ...]
+
+
+def keypoints_to_rows(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
+    """Keypoints as rows.
+
+    Parameters
+    ----------
+    keypoints : sequence of cv2.KeyPoint
+
+    Returns
+    -------
+    rows : ndarray of float64, shape (N, 7)
+        One row per keypoint, columns :data:`ROW_FIELDS`.
+
+    Raises
+    ------
+    TypeError
+        If an element is not a ``cv2.KeyPoint`` (naming its index).
+    """
+    rows = []
+    for i, k in enumerate(keypoints):
+        if not isinstance(k, cv2.KeyPoint):
+            raise TypeError(f"keypoints[{i}] is {type(k).__name__}; expected cv2.KeyPoint")
+        rows.append((k.pt[0], k.pt[1], k.size, k.angle, k.response, k.octave, k.class_id))
+    return np.asarray(rows, dtype=np.float64).reshape(-1, len(ROW_FIELDS))
+
+
+def rows_to_keypoints(rows: np.ndarray) -> KeyPoints:
+    """Rows (shape (N, 7), columns :data:`ROW_FIELDS`) as a tuple of cv2.KeyPoint."""
+    return tuple(
+        cv2.KeyPoint(x, y, size, angle, response, int(octave), int(class_id))
+        for x, y, size, angle, response, octave, class_id in np.asarray(rows).tolist()
+    )
+
+
+def keypoint_slopes(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
+    """Slopes of LiFF keypoints.
+
+    Parameters
+    ----------
+    keypoints : sequence of cv2.KeyPoint
+        Keypoints from :class:`liff.LiFF`; the slope is stored in ``class_id`` as
+        ``round(slope * SLOPE_SCALE)`` with ``SLOPE_SCALE = 65536``.
+
+    Returns
+    -------
+    slopes : ndarray of float64, shape (N,)
+        Pixels per view step: a point at (x, y) in the centre view appears at
+        ``(x - slope*(s - s_c), y - slope*(t - t_c))`` in view (t, s).
+    """
+    return np.fromiter((k.class_id for k in keypoints), dtype=np.float64) / SLOPE_SCALE

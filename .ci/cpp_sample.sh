@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# C++ side: builds the library with its API tests (ctest), installs it, then builds and
-# runs samples/cpp against the installed package with find_package(liff).
+# C++ side: builds the library with its tests (cpp/tests, GoogleTest: needs libgtest-dev)
+# and runs them with ctest, installs the library, then builds and runs samples/cpp
+# against the installed package with find_package(liff).
 # Uses .venv's cmake/ninja (from PyPI).
 set -euo pipefail
 cd "$(dirname "$0")/.."

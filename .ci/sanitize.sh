@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # AddressSanitizer + UndefinedBehaviorSanitizer (CMake option LIFF_SANITIZE).
 #
-# Builds, in build/sanitize, the C++ library with its API tests (ctest) and the Python
+# Builds, in build/sanitize, the C++ library with its tests (ctest) and the Python
 # module liff._core, all with -fsanitize=address,undefined -fno-sanitize-recover=undefined;
 # runs ctest, then (unless LIFF_SANITIZE_PYTHON=0) the Python test suite against the
 # sanitized _core, with libasan/libubsan preloaded into the interpreter. Any sanitizer
@@ -29,7 +29,7 @@ nm -D "$build"/_core*.so | grep __asan_report >/dev/null ||
 export ASAN_OPTIONS="halt_on_error=1:abort_on_error=1:detect_leaks=0:strict_string_checks=1:detect_stack_use_after_return=1:check_initialization_order=1"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
 
-# The C++ API tests: the binary links the sanitizer runtimes itself (leak checks on).
+# The C++ tests: the binary links the sanitizer runtimes itself (leak checks on).
 ASAN_OPTIONS="${ASAN_OPTIONS/detect_leaks=0/detect_leaks=1}" \
   ctest --test-dir "$build" --output-on-failure
 

@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # One-command set-up for a fresh Debian/Ubuntu machine, used by the README and by CI:
-# installs what is missing (the system OpenCV dev package, a C++ compiler, venv),
-# makes a virtualenv in .venv, installs liff into it, then
+# installs what is missing (the system OpenCV dev package, a C++ compiler, venv and,
+# for `test`, GoogleTest), makes a virtualenv in .venv, installs liff into it, then
 #   demo [DIR]  runs the main job on the built-in example (pictures into DIR), or
-#   test        builds and runs the C++ tests and sample (against the installed C++
-#               package), then runs the Python test suite.
+#   test        builds and runs the C++ tests (GoogleTest) and sample (against the
+#               installed C++ package), then runs the Python test suite.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 mode=${1:-demo}
@@ -12,6 +12,9 @@ case "$mode" in demo|test) ;; *) echo "usage: $0 demo [DIR] | test" >&2; exit 2 
 
 missing=()
 dpkg -s libopencv-dev >/dev/null 2>&1 || missing+=(libopencv-dev)
+if [ "$mode" = test ]; then  # the C++ tests (CMake's find_package(GTest))
+  dpkg -s libgtest-dev >/dev/null 2>&1 || missing+=(libgtest-dev)
+fi
 command -v c++ >/dev/null 2>&1 || missing+=(g++)
 python3 -c 'import venv, ensurepip' >/dev/null 2>&1 || missing+=(python3-venv)
 if [ ${#missing[@]} -gt 0 ]; then

@@ -18,8 +18,6 @@ namespace liff {
 namespace detail {
 namespace {
 
-/// Keypoints closer than this to an octave image's border are not searched.
-constexpr int kImageBorder = 5;
 /// Newton steps allowed for the (x, y, scale) refinement before giving up.
 constexpr int kMaxRefineSteps = 5;
 
@@ -55,9 +53,9 @@ LIFF_HOT_LOOP void markCandidates(const float* up, const float* row, const float
   }
 }
 
-// Whether dog(o, i) of `here` at (r, c) beats all of its 80 neighbours (26 in its
-// own slice, 27 in each adjacent slice that exists). The own layer goes first: it
-// rejects most candidates.
+}  // namespace
+
+// The own layer goes first: it rejects most candidates.
 bool isExtremum(const SliceNeighbourhood& slices, int o, int i, int r, int c, float v) {
   const bool isMax = v > 0;
   if (!beats3x3(v, isMax, slices.here->dog(o, i), r, c, true)) return false;
@@ -71,18 +69,30 @@ bool isExtremum(const SliceNeighbourhood& slices, int o, int i, int r, int c, fl
   return true;
 }
 
-// Refined extremum in octave image coordinates.
-struct Refined {
-  int r, c, layer;     // integer sample after Newton steps
-  float xr, xc, xi;    // sub-sample offsets in [-0.5, 0.5]
-  float contrast;      // interpolated DoG value
-};
+// The stencils of DogDerivatives (extrema.hpp), written as cv::SIFT writes them:
+// second differences as D(+1) + D(-1) - 2 D, the factors 1/2 and 1/4 applied last.
+DogDerivatives dogDerivatives(const ScaleSpace& space, int o, int layer, int r, int c) {
+  const cv::Mat& img = space.dog(o, layer);
+  const cv::Mat& prev = space.dog(o, layer - 1);
+  const cv::Mat& next = space.dog(o, layer + 1);
+  DogDerivatives d{};
+  d.value = img.at<float>(r, c);
+  const float v2 = 2.f * d.value;
+  d.gradient = cv::Vec3f((img.at<float>(r, c + 1) - img.at<float>(r, c - 1)) * 0.5f,
+                         (img.at<float>(r + 1, c) - img.at<float>(r - 1, c)) * 0.5f,
+                         (next.at<float>(r, c) - prev.at<float>(r, c)) * 0.5f);
+  d.dxx = img.at<float>(r, c + 1) + img.at<float>(r, c - 1) - v2;
+  d.dyy = img.at<float>(r + 1, c) + img.at<float>(r - 1, c) - v2;
+  d.dss = next.at<float>(r, c) + prev.at<float>(r, c) - v2;
+  d.dxy = (img.at<float>(r + 1, c + 1) - img.at<float>(r + 1, c - 1) -
+           img.at<float>(r - 1, c + 1) + img.at<float>(r - 1, c - 1)) * 0.25f;
+  d.dxs = (next.at<float>(r, c + 1) - next.at<float>(r, c - 1) -
+           prev.at<float>(r, c + 1) + prev.at<float>(r, c - 1)) * 0.25f;
+  d.dys = (next.at<float>(r + 1, c) - next.at<float>(r - 1, c) -
+           prev.at<float>(r + 1, c) + prev.at<float>(r - 1, c)) * 0.25f;
+  return d;
+}
 
-// Fits a 3-D quadratic to the DoG around (r, c, layer) of one slice and moves to
-// the sample nearest its extremum, as SIFT (Lowe 2004, sec. 4):
-//   x_hat = -H^-1 g,   D(x_hat) = D + g . x_hat / 2,
-// then rejects low contrast (|D(x_hat)| * layers < contrastThreshold) and edges
-// (tr(H_xy)^2 / det(H_xy) >= (r + 1)^2 / r).
 bool refine(const ScaleSpace& space, int o, const DetectParams& params, int r, int c, int layer,
             Refined& out) {
   const int layers = space.layers;
@@ -90,26 +100,13 @@ bool refine(const ScaleSpace& space, int o, const DetectParams& params, int r, i
   float xi = 0, xr = 0, xc = 0;
   std::array<cv::Vec3i, kMaxRefineSteps + 1> visited;  // (r, c, layer) of each step
   visited[0] = cv::Vec3i(r, c, layer);
+  // Derivatives at the current sample; every exit from the loop that keeps the point
+  // leaves them at the sample it ends on, for the contrast and edge tests.
+  DogDerivatives d{};
   int step = 0;
   for (; step < kMaxRefineSteps; ++step) {
-    const cv::Mat& img = space.dog(o, layer);
-    const cv::Mat& prev = space.dog(o, layer - 1);
-    const cv::Mat& next = space.dog(o, layer + 1);
-    const float v2 = 2.f * img.at<float>(r, c);
-    const cv::Vec3f g((img.at<float>(r, c + 1) - img.at<float>(r, c - 1)) * 0.5f,
-                      (img.at<float>(r + 1, c) - img.at<float>(r - 1, c)) * 0.5f,
-                      (next.at<float>(r, c) - prev.at<float>(r, c)) * 0.5f);
-    const float dxx = img.at<float>(r, c + 1) + img.at<float>(r, c - 1) - v2;
-    const float dyy = img.at<float>(r + 1, c) + img.at<float>(r - 1, c) - v2;
-    const float dss = next.at<float>(r, c) + prev.at<float>(r, c) - v2;
-    const float dxy = (img.at<float>(r + 1, c + 1) - img.at<float>(r + 1, c - 1) -
-                       img.at<float>(r - 1, c + 1) + img.at<float>(r - 1, c - 1)) * 0.25f;
-    const float dxs = (next.at<float>(r, c + 1) - next.at<float>(r, c - 1) -
-                       prev.at<float>(r, c + 1) + prev.at<float>(r, c - 1)) * 0.25f;
-    const float dys = (next.at<float>(r + 1, c) - next.at<float>(r - 1, c) -
-                       prev.at<float>(r + 1, c) + prev.at<float>(r - 1, c)) * 0.25f;
-    const cv::Matx33f H(dxx, dxy, dxs, dxy, dyy, dys, dxs, dys, dss);
-    const cv::Vec3f x = H.solve(g, cv::DECOMP_LU);
+    d = dogDerivatives(space, o, layer, r, c);
+    const cv::Vec3f x = d.hessian().solve(d.gradient, cv::DECOMP_LU);
     xc = -x[0];
     xr = -x[1];
     xi = -x[2];
@@ -141,21 +138,12 @@ bool refine(const ScaleSpace& space, int o, const DetectParams& params, int r, i
   }
   if (step >= kMaxRefineSteps) return false;
 
-  const cv::Mat& img = space.dog(o, layer);
-  const cv::Mat& prev = space.dog(o, layer - 1);
-  const cv::Mat& next = space.dog(o, layer + 1);
-  const cv::Vec3f g((img.at<float>(r, c + 1) - img.at<float>(r, c - 1)) * 0.5f,
-                    (img.at<float>(r + 1, c) - img.at<float>(r - 1, c)) * 0.5f,
-                    (next.at<float>(r, c) - prev.at<float>(r, c)) * 0.5f);
-  const float contrast = img.at<float>(r, c) + g.dot(cv::Vec3f(xc, xr, xi)) * 0.5f;
+  const float contrast = d.value + d.gradient.dot(cv::Vec3f(xc, xr, xi)) * 0.5f;
   if (std::abs(contrast) * layers < params.contrastThreshold) return false;
 
-  const float v2 = 2.f * img.at<float>(r, c);
-  const float dxx = img.at<float>(r, c + 1) + img.at<float>(r, c - 1) - v2;
-  const float dyy = img.at<float>(r + 1, c) + img.at<float>(r - 1, c) - v2;
-  const float dxy = (img.at<float>(r + 1, c + 1) - img.at<float>(r + 1, c - 1) -
-                     img.at<float>(r - 1, c + 1) + img.at<float>(r - 1, c - 1)) * 0.25f;
-  const float trace = dxx + dyy, det = dxx * dyy - dxy * dxy;
+  // Edges: the principal curvatures of the 2-D Hessian [dxx dxy; dxy dyy] must have
+  // one sign (det > 0) and a ratio below e = edgeThreshold: tr^2 / det < (e + 1)^2 / e.
+  const float trace = d.dxx + d.dyy, det = d.dxx * d.dyy - d.dxy * d.dxy;
   const double edge = params.edgeThreshold;
   if (det <= 0 || trace * trace * edge >= (edge + 1) * (edge + 1) * det) return false;
 
@@ -163,9 +151,6 @@ bool refine(const ScaleSpace& space, int o, const DetectParams& params, int r, i
   return true;
 }
 
-// Sub-slope offset, in slope steps, of the parabola through the DoG at the refined
-// sample in slices k - 1, k, k + 1:  delta = (D- - D+) / (2 (D- - 2 D0 + D+)),
-// clamped to [-1/2, 1/2] so the keypoint stays nearest to its detection slice.
 float subSlopeOffset(const SliceNeighbourhood& slices, int o, const Refined& e) {
   if (!slices.below || !slices.above) return 0.f;
   const float d0 = slices.here->dog(o, e.layer).at<float>(e.r, e.c);
@@ -176,8 +161,6 @@ float subSlopeOffset(const SliceNeighbourhood& slices, int o, const Refined& e) 
   const float delta = 0.5f * (dm - dp) / curvature;
   return std::min(0.5f, std::max(-0.5f, delta));
 }
-
-}  // namespace
 
 bool unpackOctave(const cv::KeyPoint& keypoint, int octaves, int layers, int& o, int& layer) {
   int packed = keypoint.octave & 255;

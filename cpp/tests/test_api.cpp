@@ -1,0 +1,243 @@
+// The public C++ API where the Python tests cannot reach it directly: cv::Exception
+// on bad input, cv::Feature2D routing, detection of a known blob, FileStorage.
+#include <liff/liff.hpp>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace {
+
+// Passes if `fn` throws a cv::Exception whose message contains `word`.
+::testing::AssertionResult throwsWith(const std::function<void()>& fn, const std::string& word) {
+  try {
+    fn();
+  } catch (const cv::Exception& e) {
+    if (e.err.find(word) != std::string::npos) return ::testing::AssertionSuccess();
+    return ::testing::AssertionFailure() << "message without '" << word << "': " << e.err;
+  }
+  return ::testing::AssertionFailure() << "no cv::Exception (expected one naming '" << word
+                                       << "')";
+}
+
+// A T x S x V x U light field of one Gaussian blob (sigma 3 px, on 0.3 grey) whose
+// centre-view position is (x, y) at the given slope (CONVENTIONS.md: view (t, s) sees
+// it at (x - slope (s - s_c), y - slope (t - t_c))).
+cv::Mat blobLightField(int T, int S, int V, int U, double x, double y, double slope) {
+  const int sizes[4] = {T, S, V, U};
+  cv::Mat lf(4, sizes, CV_32F);
+  for (int t = 0; t < T; ++t)
+    for (int s = 0; s < S; ++s)
+      for (int v = 0; v < V; ++v)
+        for (int u = 0; u < U; ++u) {
+          const double cx = x - slope * (s - (S - 1) / 2.0), cy = y - slope * (t - (T - 1) / 2.0);
+          const int idx[4] = {t, s, v, u};
+          lf.at<float>(idx) =
+              float(0.3 + 0.5 * std::exp(-((u - cx) * (u - cx) + (v - cy) * (v - cy)) / 18.0));
+        }
+  return lf;
+}
+
+// The blob every detection test looks for.
+constexpr double kBlobX = 30.4, kBlobY = 33.6, kBlobSlope = -0.35;
+
+cv::Mat blobScene() { return blobLightField(5, 5, 64, 64, kBlobX, kBlobY, kBlobSlope); }
+
+bool sameKeypoints(const std::vector<cv::KeyPoint>& a, const std::vector<cv::KeyPoint>& b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i)
+    if (!(a[i].pt == b[i].pt && a[i].size == b[i].size && a[i].angle == b[i].angle &&
+          a[i].response == b[i].response && a[i].octave == b[i].octave &&
+          a[i].class_id == b[i].class_id))
+      return false;
+  return true;
+}
+
+// --- Identity and cv::Feature2D routing -----------------------------------------------
+
+TEST(Feature2DInterface, NameDescriptorAndNormAreSiftLike) {
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create();
+  EXPECT_EQ(d->getDefaultName(), "Feature2D.LiFF");
+  EXPECT_EQ(d->descriptorSize(), 128);
+  EXPECT_EQ(d->descriptorType(), CV_32F);
+  EXPECT_EQ(d->defaultNorm(), cv::NORM_L2);
+  EXPECT_FALSE(d->empty());
+}
+
+TEST(Feature2DInterface, SlopeRoundTripsThroughClassId) {
+  // 0.375 = 24576 / 65536 is exact in the fixed-point class_id.
+  const cv::KeyPoint k(0, 0, 1, -1, 0, 0, liff::slopeToClassId(0.375));
+  EXPECT_EQ(liff::keypointSlope(k), 0.375);
+}
+
+TEST(Feature2DInterface, DetectThroughTheBaseClassValidatesLikeDetectAndCompute) {
+  // cv::Feature2D::detect returns nothing for an empty image; LiFF's override routes
+  // to detectAndCompute, which says the input is empty.
+  const cv::Ptr<cv::Feature2D> base = liff::LiFF::create();
+  std::vector<cv::KeyPoint> kps;
+  EXPECT_TRUE(throwsWith([&] { base->detect(cv::Mat(), kps); }, "empty"));
+}
+
+TEST(Feature2DInterface, DetectAndComputeCalledApartThroughTheBaseClassEqualDetectAndCompute) {
+  const cv::Mat lf = blobScene();
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create();
+  std::vector<cv::KeyPoint> kps;
+  cv::Mat desc;
+  d->detectAndCompute(lf, cv::noArray(), kps, desc);
+  ASSERT_FALSE(kps.empty());
+
+  const cv::Ptr<cv::Feature2D> base = d;
+  std::vector<cv::KeyPoint> detected;
+  base->detect(lf, detected);
+  EXPECT_TRUE(sameKeypoints(detected, kps));
+  std::vector<cv::KeyPoint> given = kps;
+  cv::Mat computed;
+  base->compute(lf, given, computed);
+  EXPECT_TRUE(sameKeypoints(given, kps));
+  ASSERT_EQ(computed.size(), desc.size());
+  EXPECT_EQ(cv::norm(desc, computed, cv::NORM_INF), 0);
+}
+
+// --- Bad input: a cv::Exception naming what was expected, never a crash ---------------
+
+TEST(BadInput, EmptyLightFieldIsRefused) {
+  std::vector<cv::KeyPoint> kps;
+  EXPECT_TRUE(throwsWith([&] { liff::LiFF::create()->detect(cv::Mat(), kps); }, "empty"));
+}
+
+TEST(BadInput, ThreeDimensionalMatIsRefused) {
+  const int sizes[3] = {4, 8, 8};
+  const cv::Mat cube(3, sizes, CV_32F, cv::Scalar(0));
+  std::vector<cv::KeyPoint> kps;
+  EXPECT_TRUE(throwsWith([&] { liff::LiFF::create()->detect(cube, kps); }, "dimensions"));
+}
+
+TEST(BadInput, Int32ElementsAreRefused) {
+  std::vector<cv::KeyPoint> kps;
+  EXPECT_TRUE(throwsWith(
+      [&] { liff::LiFF::create()->detect(cv::Mat(32, 32, CV_32S, cv::Scalar(0)), kps); },
+      "uint8"));
+}
+
+TEST(BadInput, FiveChannelsAreRefused) {
+  std::vector<cv::KeyPoint> kps;
+  EXPECT_TRUE(throwsWith(
+      [&] { liff::LiFF::create()->detect(cv::Mat(32, 32, CV_8UC(5), cv::Scalar(0)), kps); },
+      "channels"));
+}
+
+TEST(BadInput, NegativeAlphaIsRefused) {
+  std::vector<cv::KeyPoint> kps;
+  EXPECT_TRUE(throwsWith(
+      [&] { liff::LiFF::create()->detect(cv::Mat(32, 32, CV_32FC2, cv::Scalar(0.5, -1)), kps); },
+      "negative weight"));
+}
+
+TEST(BadInput, NaNValueIsRefused) {
+  cv::Mat withNaN(32, 32, CV_32F, cv::Scalar(0.5));
+  withNaN.at<float>(3, 4) = NAN;
+  std::vector<cv::KeyPoint> kps;
+  EXPECT_TRUE(throwsWith([&] { liff::LiFF::create()->detect(withNaN, kps); }, "NaN"));
+}
+
+TEST(BadInput, MaskOfTheWrongSizeIsRefused) {
+  const cv::Mat image(32, 32, CV_32F, cv::Scalar(0.5)), mask(16, 16, CV_8U, cv::Scalar(1));
+  std::vector<cv::KeyPoint> kps;
+  EXPECT_TRUE(throwsWith([&] { liff::LiFF::create()->detect(image, kps, mask); }, "mask"));
+}
+
+TEST(BadInput, ZeroOctaveLayersIsRefused) {
+  EXPECT_TRUE(throwsWith([] { liff::LiFF::create()->setNOctaveLayers(0); }, "nOctaveLayers"));
+}
+
+TEST(BadInput, NegativeSigmaIsRefused) {
+  EXPECT_TRUE(throwsWith([] { liff::LiFF::create()->setSigma(-1); }, "sigma"));
+}
+
+TEST(BadInput, DescriptorTypeOtherThanFloatOrByteIsRefused) {
+  EXPECT_TRUE(
+      throwsWith([] { liff::LiFF::create()->setDescriptorType(CV_16U); }, "descriptorType"));
+}
+
+TEST(BadInput, FirstSlopeAboveLastSlopeIsRefusedAtDetectTime) {
+  // create() takes the slopes one at a time; their order is checked by detect().
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create(0, 3, 0.04, 10, 1.6, 1, -1);
+  const cv::Mat lf = blobLightField(3, 3, 32, 32, 16, 16, 0);
+  std::vector<cv::KeyPoint> kps;
+  EXPECT_TRUE(throwsWith([&] { d->detect(lf, kps); }, "firstSlope"));
+}
+
+TEST(BadInput, MemoryLimitTooSmallThrowsStsNoMemBeforeDetecting) {
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create();
+  d->setMemoryLimitMB(0.01);
+  std::vector<cv::KeyPoint> kps;
+  try {
+    d->detect(blobScene(), kps);
+    FAIL() << "no cv::Exception for a 0.01 MB memory limit";
+  } catch (const cv::Exception& e) {
+    EXPECT_EQ(e.code, cv::Error::StsNoMem);
+    EXPECT_NE(e.err.find("memory limit"), std::string::npos) << e.err;
+  }
+}
+
+// --- Detection of a known blob ----------------------------------------------------------
+
+TEST(Detection, BlobIsFoundAtItsPositionAndSlope) {
+  std::vector<cv::KeyPoint> kps;
+  liff::LiFF::create()->detect(blobScene(), kps);
+  bool found = false;
+  for (const cv::KeyPoint& k : kps)
+    found |= std::hypot(k.pt.x - kBlobX, k.pt.y - kBlobY) < 0.3 &&
+             std::abs(liff::keypointSlope(k) - kBlobSlope) < 0.05;
+  EXPECT_TRUE(found) << kps.size() << " keypoints, none within 0.3 px and 0.05 slope";
+}
+
+TEST(Detection, OpaqueAlphaChannelChangesNothing) {
+  const cv::Mat lf = blobScene();
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create();
+  std::vector<cv::KeyPoint> grey, withAlpha;
+  d->detect(lf, grey);
+  ASSERT_FALSE(grey.empty());
+  cv::Mat greyAlpha;
+  cv::merge(std::vector<cv::Mat>{lf, cv::Mat(4, lf.size.p, CV_32F, cv::Scalar(1))}, greyAlpha);
+  d->detect(greyAlpha, withAlpha);
+  EXPECT_TRUE(sameKeypoints(withAlpha, grey));
+}
+
+// --- FileStorage --------------------------------------------------------------------------
+
+TEST(Persistence, FileStorageRoundTripKeepsEveryParameter) {
+  const cv::Ptr<liff::LiFF> a = liff::LiFF::create(7, 4, 0.02, 12, 1.8, -1.5, 0.5, 9, CV_8U, true);
+  cv::FileStorage out(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
+  a->write(out);
+  const std::string text = out.releaseAndGetString();
+  const cv::Ptr<liff::LiFF> b = liff::LiFF::create();
+  b->read(cv::FileStorage(text, cv::FileStorage::READ | cv::FileStorage::MEMORY).root());
+  EXPECT_EQ(b->getNFeatures(), 7);
+  EXPECT_EQ(b->getNOctaveLayers(), 4);
+  EXPECT_EQ(b->getContrastThreshold(), 0.02);
+  EXPECT_EQ(b->getEdgeThreshold(), 12);
+  EXPECT_EQ(b->getSigma(), 1.8);
+  EXPECT_EQ(b->getFirstSlope(), -1.5);
+  EXPECT_EQ(b->getLastSlope(), 0.5);
+  EXPECT_EQ(b->getNumSlopes(), 9);
+  EXPECT_EQ(b->getDescriptorType(), CV_8U);
+  EXPECT_TRUE(b->getRootSift());
+}
+
+TEST(Persistence, ReadOfABadValueThrowsAndChangesNothing) {
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create(7);
+  const std::string bad = "%YAML:1.0\n---\nnfeatures: 3\nsigma: -2\n";
+  EXPECT_TRUE(throwsWith(
+      [&] {
+        d->read(cv::FileStorage(bad, cv::FileStorage::READ | cv::FileStorage::MEMORY).root());
+      },
+      "sigma"));
+  EXPECT_EQ(d->getNFeatures(), 7);  // nfeatures: 3 came first but was not applied
+  EXPECT_EQ(d->getSigma(), 1.6);
+}
+
+}  // namespace

@@ -1,0 +1,80 @@
+// Sizes of one focal slice's scale space (scale_space.hpp), as cv::SIFT sizes its
+// pyramid: the slice upsampled 2x (first octave -1), halved per octave, with
+// nOctaveLayers + 3 Gaussians and nOctaveLayers + 2 DoGs per octave.
+#include "scale_space.hpp"
+
+#include <gtest/gtest.h>
+
+namespace {
+
+using liff::detail::buildScaleSpace;
+using liff::detail::numOctaves;
+using liff::detail::ScaleSpace;
+
+// numOctaves = round(log2(2 min(width, height)) - 2) + 1 (cv::SIFT's count for first
+// octave -1): the smallest octave image keeps a side of about 4 to 8 pixels.
+TEST(ScaleSpaceSize, OctaveCountFollowsTheShorterSideAsInSift) {
+  struct Case {
+    cv::Size view;
+    int octaves;
+  };
+  const Case cases[] = {
+      {{64, 64}, 6},    // log2(128) - 2 = 5
+      {{160, 160}, 7},  // log2(320) - 2 = 6.32
+      {{180, 200}, 7},  // the shorter side counts: log2(360) - 2 = 6.49
+      {{512, 512}, 9},  // log2(1024) - 2 = 8
+      {{640, 48}, 6},   // log2(96) - 2 = 4.58 -> 5
+      {{12, 12}, 4},    // log2(24) - 2 = 2.58 -> 3
+      {{2, 2}, 1},      // log2(4) - 2 = 0
+      {{1, 1}, 0},      // log2(2) - 2 = -1: nothing to search
+  };
+  for (const Case& c : cases)
+    EXPECT_EQ(numOctaves(c.view), c.octaves) << c.view.width << " x " << c.view.height;
+}
+
+ScaleSpace build(cv::Size view, int layers, bool detectionOnly) {
+  cv::Mat slice(view, CV_32F);
+  cv::randu(slice, 0.f, 1.f);
+  ScaleSpace space;
+  buildScaleSpace(slice, layers, 1.6, numOctaves(view), cv::Vec2d(0, 0), cv::Vec2d(0, 0),
+                  detectionOnly, false, space);
+  return space;
+}
+
+// Octave o holds images of (2 width >> o) x (2 height >> o): layers + 3 Gaussians and
+// layers + 2 DoGs, each DoG the difference of the Gaussians above and below it.
+TEST(ScaleSpaceSize, EveryOctaveHoldsItsGaussiansAndDoGsAtHalfTheSizeOfTheLast) {
+  for (cv::Size view : {cv::Size(40, 30), cv::Size(33, 64), cv::Size(16, 16)})
+    for (int layers : {1, 3, 5}) {
+      SCOPED_TRACE(testing::Message() << view.width << " x " << view.height << ", " << layers
+                                      << " layers");
+      const ScaleSpace space = build(view, layers, false);
+      ASSERT_EQ(space.octaves, numOctaves(view));
+      ASSERT_EQ(space.layers, layers);
+      ASSERT_EQ(space.gaussians.size(), size_t(space.octaves) * (layers + 3));
+      ASSERT_EQ(space.dogs.size(), size_t(space.octaves) * (layers + 2));
+      for (int o = 0; o < space.octaves; ++o) {
+        const cv::Size size(2 * view.width >> o, 2 * view.height >> o);
+        for (int i = 0; i < layers + 3; ++i) EXPECT_EQ(space.gaussian(o, i).size(), size);
+        for (int i = 0; i < layers + 2; ++i) {
+          ASSERT_EQ(space.dog(o, i).size(), size);
+          EXPECT_EQ(cv::norm(space.dog(o, i), space.gaussian(o, i + 1) - space.gaussian(o, i),
+                             cv::NORM_INF),
+                    0);
+        }
+      }
+    }
+}
+
+// Detection needs the DoGs and, for orientations, Gaussians 1 .. layers only.
+TEST(ScaleSpaceSize, DetectionOnlyPyramidKeepsTheGaussiansKeypointsCanUse) {
+  const int layers = 3;
+  const ScaleSpace space = build(cv::Size(40, 30), layers, true);
+  for (int o = 0; o < space.octaves; ++o) {
+    for (int i = 0; i < layers + 3; ++i)
+      EXPECT_EQ(space.gaussian(o, i).empty(), i == 0 || i > layers) << o << ", " << i;
+    for (int i = 0; i < layers + 2; ++i) EXPECT_FALSE(space.dog(o, i).empty()) << o << ", " << i;
+  }
+}
+
+}  // namespace

@@ -1,5 +1,7 @@
 """The Feature2D surface: construction, parameters, return types, detect/compute consistency."""
 
+import math
+
 import cv2
 import numpy as np
 import pytest
@@ -9,7 +11,7 @@ from lfhelpers import assert_same_keypoints, kp_fields
 
 DEFAULTS = dict(
     nfeatures=0, nOctaveLayers=3, contrastThreshold=0.04, edgeThreshold=10.0, sigma=1.6,
-    firstSlope=-1.0, lastSlope=1.0, numSlopes=0, descriptorType=cv2.CV_32F, rootSift=False,
+    firstSlope=-math.inf, lastSlope=math.inf, numSlopes=0, descriptorType=cv2.CV_32F, rootSift=False,
 )
 CUSTOM = dict(
     nfeatures=17, nOctaveLayers=4, contrastThreshold=0.031, edgeThreshold=7.5, sigma=1.3,

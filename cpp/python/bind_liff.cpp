@@ -127,7 +127,20 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
   bindAccessors(cls);
   cls.def("slopesFor", [](const PyLiFF& s, int T, int S) { return s.impl->slopesFor(T, S); },
           "T"_a, "S"_a,
-          "The focal-stack slopes used for a light field of T x S views (list of float).");
+          "The focal-stack slopes for a light field of T x S views with a finite slope range "
+          "(list of float); ValueError with an automatic range.");
+  cls.def(
+      "_slopes_for_light_field",
+      [](PyLiFF& s, const py::array& lf) {
+        const cv::Mat image = lightFieldMat(lf);
+        py::gil_scoped_release release;
+        return s.impl->slopesFor(image);
+      },
+      "lf"_a, "The focal-stack slopes detection would use for this light field.");
+  cls.def("getSlicesUsed", [](const PyLiFF& s) { return s.impl->getSlicesUsed(); },
+          "Slopes of every focal slice the last call built, increasing (list of float).");
+  cls.def("getSearchedSlopes", [](const PyLiFF& s) { return s.impl->getSearchedSlopes(); },
+          "Slopes of the slices the last call searched for extrema (list of float).");
   cls.def("descriptorSize", [](const PyLiFF& s) { return s.impl->descriptorSize(); },
           "Descriptor length: 128.");
   cls.def("descriptorType", [](const PyLiFF& s) { return s.impl->descriptorType(); },

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <cstdlib>
 
 namespace liff {
 namespace detail {
@@ -153,9 +154,24 @@ bool refine(const ScaleSpace& space, int o, const DetectParams& params, int r, i
 
 float subSlopeOffset(const SliceNeighbourhood& slices, int o, const Refined& e) {
   if (!slices.below || !slices.above) return 0.f;
-  const float d0 = slices.here->dog(o, e.layer).at<float>(e.r, e.c);
-  const float dm = slices.below->dog(o, e.layer).at<float>(e.r, e.c);
-  const float dp = slices.above->dog(o, e.layer).at<float>(e.r, e.c);
+  const float d0raw = slices.here->dog(o, e.layer).at<float>(e.r, e.c);
+  const float dmraw = slices.below->dog(o, e.layer).at<float>(e.r, e.c);
+  const float dpraw = slices.above->dog(o, e.layer).at<float>(e.r, e.c);
+  static const int mode = std::getenv("LIFF_SUBSLOPE") ? std::atoi(std::getenv("LIFF_SUBSLOPE")) : 0;
+  float d0 = d0raw, dm = dmraw, dp = dpraw;
+  if (mode >= 2) {  // each slice's quadratic model at the refined offset
+    auto at = [&](const ScaleSpace* sp) {
+      const DogDerivatives d = dogDerivatives(*sp, o, e.layer, e.r, e.c);
+      const cv::Vec3f x(e.xc, e.xr, e.xi);
+      return d.value + d.gradient.dot(x) + 0.5f * x.dot(d.hessian() * x);
+    };
+    d0 = at(slices.here); dm = at(slices.below); dp = at(slices.above);
+  }
+  if ((mode == 1 || mode == 2) && dm * d0 > 0 && dp * d0 > 0) {
+    const float lm = std::log(std::abs(dm)), l0 = std::log(std::abs(d0)), lp = std::log(std::abs(dp));
+    const float c = lm - 2.f * l0 + lp;
+    if (c < -1e-12f) return std::min(0.5f, std::max(-0.5f, 0.5f * (lm - lp) / c));
+  }
   const float curvature = dm - 2.f * d0 + dp;
   if (!(std::abs(curvature) > 1e-12f)) return 0.f;
   const float delta = 0.5f * (dm - dp) / curvature;

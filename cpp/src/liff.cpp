@@ -10,17 +10,17 @@
 
 #include "descriptor.hpp"
 #include "detections.hpp"
-#include "extrema.hpp"
 #include "light_field.hpp"
 #include "memory.hpp"
-#include "profile.hpp"
+#include "pipeline.hpp"
 #include "scale_space.hpp"
-#include "slice_window.hpp"
 #include "slope_plan.hpp"
+#include "slope_range.hpp"
 
 #include <algorithm>
 #include <climits>
 #include <cmath>
+#include <mutex>
 
 namespace liff {
 
@@ -39,21 +39,22 @@ cv::String LiFF::getDefaultName() const { return "Feature2D.LiFF"; }
 
 namespace {
 
+using detail::Call;
 using detail::Detections;
 using detail::LightField;
-using detail::SliceWindow;
 using detail::SlopePlan;
 
 void require(bool ok, const cv::String& message) {
   if (!ok) CV_Error(cv::Error::StsOutOfRange, "LiFF: " + message);
 }
 
-// compute() drops keypoints with |x|, |y| or size at least this (pixels): they cannot
-// be described, and would overflow the sampling window's integer arithmetic.
-constexpr float kMaxCoordinate = 1e6f;
-// Rows of one octave image that one extrema-search task covers.
-constexpr int kRowsPerSearchTask = 32;
 constexpr double kBytesPerMB = 1024.0 * 1024.0;
+
+// The one slope of a single view with an automatic range: a finite bound if one is
+// set, else 0.
+double singleViewSlope(const Parameters& p) {
+  return std::isfinite(p.firstSlope) ? p.firstSlope : std::isfinite(p.lastSlope) ? p.lastSlope : 0.0;
+}
 
 // Slices searched together: one per thread, so that building their scale spaces
 // keeps every thread busy; memory stays at (batch + 2) scale spaces. Results do
@@ -79,154 +80,6 @@ int sliceBatch(const LightField& lf, const detail::MemoryEstimate& need, double 
                         need.focalSliceBytes / kBytesPerMB, limit / kBytesPerMB,
                         automatic ? "automatic: the memory available now" : "setMemoryLimitMB"));
   return batch;
-}
-
-// Descriptors of keypoints[j] on the scale space of slice sliceOf[j] (held by
-// `window`), into rows of `descriptors`, in parallel.
-void describe(const std::vector<cv::KeyPoint>& keypoints, const std::vector<int>& sliceOf,
-              const SliceWindow& window, bool rootSift, cv::Mat& descriptors) {
-  cv::parallel_for_(cv::Range(0, int(keypoints.size())), [&](const cv::Range& range) {
-    detail::StageTimer timer(detail::kDescriptors);
-    for (int j = range.start; j < range.end; ++j)
-      detail::describeKeypoint(window.at(sliceOf[j]), keypoints[j], rootSift,
-                               descriptors.row(j));
-  });
-}
-
-// The plan's slices each keypoint is described on: the grid slope nearest its own.
-std::vector<int> nearestSlices(const SlopePlan& plan, const std::vector<cv::KeyPoint>& keypoints) {
-  std::vector<int> slices;
-  slices.reserve(keypoints.size());
-  for (const cv::KeyPoint& kp : keypoints) slices.push_back(plan.nearest(keypointSlope(kp)));
-  return slices;
-}
-
-// Everything one call needs, fixed at its start.
-struct Call {
-  const Parameters& parameters;
-  const LightField& lf;
-  const SlopePlan& plan;
-  detail::ScaleSpaceSettings settings;
-  int batch;        // slices built at once
-  int renderAhead;  // focal slices rendered ahead in slope order (detection)
-};
-
-// compute(): describes the given keypoints, each on the slice nearest its slope, and
-// drops those whose packed octave/layer this light field's pyramid lacks (as
-// cv::Feature2D does). Each needed scale space is built once, `batch` at a time.
-void describeProvidedKeypoints(const Call& call, std::vector<cv::KeyPoint>& keypoints,
-                               bool wantDescriptors, cv::Mat& descriptors) {
-  std::vector<cv::KeyPoint> kept;
-  for (const cv::KeyPoint& kp : keypoints) {
-    int o, layer;
-    const bool usable = std::abs(kp.pt.x) < kMaxCoordinate &&
-                        std::abs(kp.pt.y) < kMaxCoordinate && kp.size > 0 &&
-                        kp.size < kMaxCoordinate && std::isfinite(kp.angle);
-    if (call.settings.octaves >= 1 && usable &&
-        detail::unpackOctave(kp, call.settings.octaves, call.settings.layers, o, layer))
-      kept.push_back(kp);
-  }
-  keypoints = kept;
-  if (!wantDescriptors) return;
-  descriptors.create(int(kept.size()), detail::kDescriptorSize, call.parameters.descriptorType);
-  const std::vector<int> sliceOf = nearestSlices(call.plan, kept);
-  std::vector<int> needed(sliceOf);
-  std::sort(needed.begin(), needed.end());
-  needed.erase(std::unique(needed.begin(), needed.end()), needed.end());
-  SliceWindow window(call.lf, call.plan, call.settings, call.batch, 0);
-  for (size_t first = 0; first < needed.size(); first += call.batch) {
-    window.releaseAll();
-    window.require(std::vector<int>(needed.begin() + first,
-                                    needed.begin() + std::min(needed.size(), first + call.batch)));
-    std::vector<cv::KeyPoint> group;
-    std::vector<int> groupSlice, rows;
-    for (size_t j = 0; j < kept.size(); ++j)
-      if (window.holds(sliceOf[j])) {
-        group.push_back(kept[j]);
-        groupSlice.push_back(sliceOf[j]);
-        rows.push_back(int(j));
-      }
-    cv::Mat groupDescriptors(int(group.size()), detail::kDescriptorSize,
-                             call.parameters.descriptorType);
-    describe(group, groupSlice, window, call.parameters.rootSift, groupDescriptors);
-    for (size_t j = 0; j < rows.size(); ++j)
-      groupDescriptors.row(int(j)).copyTo(descriptors.row(rows[j]));
-  }
-}
-
-// Searches the searched slices `batch` (plan indices, whose scale spaces and grid
-// neighbours `window` holds) as fixed row-stripe tasks over all their octaves and
-// layers, so every thread stays busy; keypoints come out in task order.
-std::vector<cv::KeyPoint> searchSlices(const Call& call, const SliceWindow& window,
-                                       const std::vector<int>& batch, const cv::Mat& mask) {
-  const Parameters& p = call.parameters;
-  const detail::DetectParams params{p.nOctaveLayers, p.contrastThreshold, p.edgeThreshold,
-                                    p.sigma};
-  struct Job {
-    int slice;
-    detail::SearchTask task;
-  };
-  std::vector<Job> jobs;
-  for (int k : batch)
-    for (const detail::SearchTask& task : detail::searchTasks(window.at(k), kRowsPerSearchTask))
-      jobs.push_back({k, task});
-  std::vector<std::vector<cv::KeyPoint>> found(jobs.size());
-  cv::parallel_for_(cv::Range(0, int(jobs.size())), [&](const cv::Range& range) {
-    for (int j = range.start; j < range.end; ++j) {
-      const int k = jobs[j].slice;
-      detail::SliceNeighbourhood slices;
-      slices.here = &window.at(k);
-      slices.below = window.below(k);
-      slices.above = window.above(k);
-      slices.slope = call.plan.slopes[k];
-      slices.slopeStep = call.plan.step;
-      detail::StageTimer timer(detail::kExtrema);
-      found[j] = detail::findKeypoints(slices, params, mask, jobs[j].task);
-    }
-  });
-  std::vector<cv::KeyPoint> keypoints;
-  for (const std::vector<cv::KeyPoint>& part : found)
-    keypoints.insert(keypoints.end(), part.begin(), part.end());
-  return keypoints;
-}
-
-// Detection: a window sliding along the slopes holds the scale spaces of the slices
-// being searched and their grid neighbours; each batch of searched slices is built,
-// searched and described in parallel, and results are concatenated in slice order.
-Detections detectInSlices(const Call& call, const cv::Mat& mask, bool wantDescriptors) {
-  std::vector<int> searched;
-  for (int k = 0; k < call.plan.size(); ++k)
-    if (call.plan.searched[k]) searched.push_back(k);
-  Detections all;
-  if (wantDescriptors)
-    all.descriptors.create(0, detail::kDescriptorSize, call.parameters.descriptorType);
-  if (call.settings.octaves < 1) return all;
-  SliceWindow window(call.lf, call.plan, call.settings, call.batch, call.renderAhead);
-  for (size_t first = 0; first < searched.size(); first += call.batch) {
-    const std::vector<int> batch(searched.begin() + first,
-                                 searched.begin() + std::min(searched.size(), first + call.batch));
-    std::vector<int> needed;
-    for (int k : batch)
-      for (int n = std::max(0, k - 1); n <= std::min(call.plan.size() - 1, k + 1); ++n)
-        needed.push_back(n);
-    std::sort(needed.begin(), needed.end());
-    window.require(needed);
-
-    const std::vector<cv::KeyPoint> keypoints = searchSlices(call, window, batch, mask);
-    all.keypoints.insert(all.keypoints.end(), keypoints.begin(), keypoints.end());
-    if (wantDescriptors && !keypoints.empty()) {
-      // Each keypoint's nearest slice is within one of its detection slice: held.
-      cv::Mat block(int(keypoints.size()), detail::kDescriptorSize,
-                    call.parameters.descriptorType);
-      describe(keypoints, nearestSlices(call.plan, keypoints), window, call.parameters.rootSift,
-               block);
-      all.descriptors.push_back(block);
-    }
-    // Keep only what the next batch needs from here on (its lower neighbour); the
-    // others' memory goes to the next slices.
-    if (first + call.batch < searched.size()) window.releaseBelow(searched[first + call.batch] - 1);
-  }
-  return all;
 }
 
 class LiFF_Impl : public LiFF {
@@ -257,7 +110,23 @@ class LiFF_Impl : public LiFF {
   double getMemoryLimitMB() const override { return memoryLimitMB_; }
 
   std::vector<double> slopesFor(int T, int S) const override {
+    if (detail::automaticRange(parameters_) && (T > 1 || S > 1))
+      CV_Error(cv::Error::StsBadArg,
+               "LiFF: slopesFor(T, S) with an automatic slope range (firstSlope = -inf or "
+               "lastSlope = +inf): the slopes depend on the light field; expected "
+               "slopesFor(lightField), or getSlicesUsed() after a detection");
+    if (T == 1 && S == 1 && detail::automaticRange(parameters_))
+      return {singleViewSlope(parameters_)};
     return detail::uniformPlan(parameters_, T, S).slopes;
+  }
+  std::vector<double> slopesFor(cv::InputArray lightField) override;
+  std::vector<double> getSlicesUsed() const override {
+    std::lock_guard<std::mutex> lock(lastMutex_);
+    return lastSlices_;
+  }
+  std::vector<double> getSearchedSlopes() const override {
+    std::lock_guard<std::mutex> lock(lastMutex_);
+    return lastSearched_;
   }
 
   // --- Feature2D ----------------------------------------------------------------------
@@ -302,9 +171,54 @@ class LiFF_Impl : public LiFF {
   using cv::Feature2D::detect;
 
  private:
+  // The slices of one call (for compute(), `describing` holds the given keypoints),
+  // for the converted light field `lf`.
+  SlopePlan planSlices(const Parameters& parameters, const LightField& lf, int batch,
+                       const std::vector<cv::KeyPoint>* describing) const;
+  void remember(const SlopePlan& plan);
+
   Parameters parameters_;
   double memoryLimitMB_ = 0;
+  mutable std::mutex lastMutex_;  // guards the last call's slices (calls may be concurrent)
+  std::vector<double> lastSlices_, lastSearched_;
 };
+
+SlopePlan LiFF_Impl::planSlices(const Parameters& parameters, const LightField& lf, int batch,
+                                const std::vector<cv::KeyPoint>* describing) const {
+  if (!detail::automaticRange(parameters)) return detail::uniformPlan(parameters, lf.T, lf.S);
+  // compute() describes on the grid detection uses, without a survey (the survey sets
+  // only which grid slices are built), unless numSlopes spreads slices over its range.
+  if (describing && (lf.T > 1 || lf.S > 1) && parameters.numSlopes == 0) {
+    std::vector<double> slopes;
+    for (const cv::KeyPoint& kp : *describing) slopes.push_back(keypointSlope(kp));
+    return detail::describingPlan(lf.T, lf.S, slopes);
+  }
+  return detail::automaticPlan(lf, parameters, batch);
+}
+
+void LiFF_Impl::remember(const SlopePlan& plan) {
+  std::vector<double> searched;
+  for (int k = 0; k < plan.size(); ++k)
+    if (plan.searched[k]) searched.push_back(plan.slopes[k]);
+  std::lock_guard<std::mutex> lock(lastMutex_);
+  lastSlices_ = plan.slopes;
+  lastSearched_ = searched;
+}
+
+std::vector<double> LiFF_Impl::slopesFor(cv::InputArray image) {
+  const Parameters parameters = parameters_;
+  const cv::Mat input = image.getMat();
+  LightField lf = detail::checkLightField(input);
+  if (!detail::automaticRange(parameters) || (lf.T == 1 && lf.S == 1))
+    return slopesFor(lf.T, lf.S);
+  const int octaves = detail::numOctaves(lf.viewSize());
+  detail::MemoryEstimate need =
+      detail::sliceMemory(lf.viewSize(), parameters.nOctaveLayers, octaves);
+  need.lightFieldBytes = detail::conversionBytes(input, lf);
+  const int batch = sliceBatch(lf, need, memoryLimitMB_);
+  detail::convertLightField(input, lf);
+  return planSlices(parameters, lf, batch, nullptr).slopes;
+}
 
 void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
                                  std::vector<cv::KeyPoint>& keypoints,
@@ -314,7 +228,7 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   LightField lf = detail::checkLightField(input);
   const cv::Mat mask = maskArray.getMat();
   detail::checkMask(mask, lf.viewSize());
-  const SlopePlan plan = detail::uniformPlan(parameters, lf.T, lf.S);
+  if (!detail::automaticRange(parameters)) detail::uniformPlan(parameters, lf.T, lf.S);  // checks
   const int octaves = detail::numOctaves(lf.viewSize());
 
   // Memory check before the grey conversion, the largest single allocation.
@@ -323,19 +237,22 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   need.lightFieldBytes = detail::conversionBytes(input, lf);
   const int batch = sliceBatch(lf, need, memoryLimitMB_);
   detail::convertLightField(input, lf);
+  const SlopePlan slices =
+      planSlices(parameters, lf, batch, useProvidedKeypoints ? &keypoints : nullptr);
+  remember(slices);
 
   const bool wantDescriptors = descriptorsOut.needed();
-  Call call{parameters, lf, plan,
+  Call call{parameters, lf, slices,
             detail::ScaleSpaceSettings{parameters.nOctaveLayers, parameters.sigma, octaves,
                                        !useProvidedKeypoints},
             batch, need.slicesAhead(batch)};
   if (useProvidedKeypoints) {
     cv::Mat descriptors;
-    describeProvidedKeypoints(call, keypoints, wantDescriptors, descriptors);
+    detail::describeProvidedKeypoints(call, keypoints, wantDescriptors, descriptors);
     if (wantDescriptors) descriptors.copyTo(descriptorsOut);
     return;
   }
-  Detections detections = detectInSlices(call, mask, wantDescriptors);
+  Detections detections = detail::detectInSlices(call, mask, wantDescriptors);
   detail::sortAndDeduplicate(detections);
   detail::retainBest(detections, parameters.nfeatures);
   keypoints.swap(detections.keypoints);

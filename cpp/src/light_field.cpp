@@ -227,6 +227,33 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
   lf.views = grey;
 }
 
+LightField decimate(const LightField& lf, int factor) {
+  LightField small;
+  small.T = lf.T;
+  small.S = lf.S;
+  small.V = lf.V / factor;
+  small.U = lf.U / factor;
+  CV_Assert(factor >= 1 && small.V >= 1 && small.U >= 1);
+  const int views = lf.T * lf.S;
+  small.views.create(views * small.V, small.U, CV_32F);
+  if (!lf.weights.empty()) small.weights.create(small.views.size(), CV_32F);
+  auto shrink = [&](const cv::Mat& from, cv::Mat& to, int v) {
+    // The whole factor x factor blocks only (a ragged edge is dropped).
+    const cv::Mat view = from.rowRange(v * lf.V, v * lf.V + small.V * factor)
+                             .colRange(0, small.U * factor);
+    cv::Mat out = to.rowRange(v * small.V, (v + 1) * small.V);
+    cv::resize(view, out, out.size(), 0, 0, cv::INTER_AREA);
+  };
+  cv::parallel_for_(cv::Range(0, views), [&](const cv::Range& range) {
+    for (int v = range.start; v < range.end; ++v) {
+      shrink(lf.views, small.views, v);
+      if (!lf.weights.empty()) shrink(lf.weights, small.weights, v);
+    }
+  });
+  small.maxWeight = lf.maxWeight;  // averages never exceed it (the test is relative)
+  return small;
+}
+
 void checkMask(const cv::Mat& mask, cv::Size viewSize) {
   if (mask.empty()) return;
   if (mask.type() != CV_8UC1 || mask.dims != 2)

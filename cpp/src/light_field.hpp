@@ -39,6 +39,12 @@ void convertLightField(const cv::Mat& input, LightField& lf);
 /// input's data as it is).
 double conversionBytes(const cv::Mat& input, const LightField& lf);
 
+/// The light field with every view (and its weights) shrunk `factor` times by area
+/// averaging (cv::INTER_AREA) to floor(V / factor) x floor(U / factor): a point that
+/// moves m pixels per view step moves m / factor in it. Premultiplied views and their
+/// weights are averaged alike, so sum(w L) / sum(w) keeps its meaning.
+LightField decimate(const LightField& lf, int factor);
+
 /// Validates a detection mask against the centre view size: empty, or CV_8UC1 of V x U.
 void checkMask(const cv::Mat& mask, cv::Size viewSize);
 

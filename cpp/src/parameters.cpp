@@ -14,10 +14,12 @@ void require(bool ok, const cv::String& message) {
   if (!ok) CV_Error(cv::Error::StsOutOfRange, "LiFF: " + message);
 }
 
-void checkSlope(const char* name, double v) {
-  require(std::isfinite(v) && std::abs(v) <= detail::kMaxAbsSlope,
-          cv::format("%s = %g; expected a finite value in [-%g, %g]", name, v,
-                     detail::kMaxAbsSlope, detail::kMaxAbsSlope));
+// A slope bound: finite within kMaxAbsSlope, or the infinity of its side (automatic).
+void checkSlope(const char* name, double v, double automatic) {
+  require((std::isfinite(v) && std::abs(v) <= detail::kMaxAbsSlope) || v == automatic,
+          cv::format("%s = %g; expected %s (automatic) or a finite value in [-%g, %g]", name,
+                     v, automatic < 0 ? "-inf" : "+inf", detail::kMaxAbsSlope,
+                     detail::kMaxAbsSlope));
 }
 
 // A FileStorage entry as a number, or an error naming the key.
@@ -65,8 +67,8 @@ void Parameters::check() const {
           cv::format("edgeThreshold = %g; expected a finite value >= 1", edgeThreshold));
   require(std::isfinite(sigma) && sigma >= 0.01 && sigma <= 100,
           cv::format("sigma = %g; expected a value in [0.01, 100]", sigma));
-  checkSlope("firstSlope", firstSlope);
-  checkSlope("lastSlope", lastSlope);
+  checkSlope("firstSlope", firstSlope, -HUGE_VAL);
+  checkSlope("lastSlope", lastSlope, HUGE_VAL);
   require(numSlopes >= 0 && numSlopes <= detail::kMaxSlopes,
           cv::format("numSlopes = %d; expected in [0, %d] (0 = automatic)", numSlopes,
                      detail::kMaxSlopes));

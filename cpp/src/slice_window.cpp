@@ -13,14 +13,7 @@ SliceWindow::SliceWindow(const LightField& lf, const SlopePlan& plan,
       plan_(plan),
       settings_(settings),
       batch_(batch),
-      targetVariance_(0, 0),
-      source_(lf, plan.slopes, renderAhead) {
-  for (double slope : plan.slopes) {
-    const cv::Vec2d v = interpolationVariance(lf.T, lf.S, slope);
-    targetVariance_ = cv::Vec2d(std::max(targetVariance_[0], v[0]),
-                                std::max(targetVariance_[1], v[1]));
-  }
-}
+      source_(lf, plan.slopes, renderAhead) {}
 
 void SliceWindow::require(const std::vector<int>& which) {
   std::vector<int> missing;
@@ -58,7 +51,7 @@ void SliceWindow::build(const std::vector<int>& which) {
     std::shared_ptr<ScaleSpace> space = pool_.takeSpace();
     const cv::Vec2d variance = interpolationVariance(lf_.T, lf_.S, plan_.slopes[which[j]]);
     buildScaleSpace(slices[j], settings_.layers, settings_.sigma, settings_.octaves, variance,
-                    targetVariance_, settings_.detectionOnly, rowParallel, *space,
+                    plan_.blurTarget, settings_.detectionOnly, rowParallel, *space,
                     scratch.get());
     slices[j].release();
     pool_.giveScratch(std::move(scratch));

@@ -54,7 +54,6 @@ class SliceWindow {
   const SlopePlan& plan_;
   ScaleSpaceSettings settings_;
   int batch_;
-  cv::Vec2d targetVariance_;  // every slice is topped up to this interpolation blur
   FocalSliceSource source_;
   ScaleSpacePool pool_;
   std::map<int, std::shared_ptr<ScaleSpace>> spaces_;

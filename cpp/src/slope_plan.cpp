@@ -1,5 +1,7 @@
 #include "slope_plan.hpp"
 
+#include "focal_stack.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -25,6 +27,20 @@ int SlopePlan::nearest(double slope) const {
   return position - grid[k - 1] <= *it - position ? k - 1 : k;
 }
 
+void setBlurTarget(SlopePlan& plan, int T, int S, bool wholeGrid) {
+  std::vector<double> slopes = plan.slopes;
+  if (wholeGrid) {
+    slopes.clear();
+    for (int k = 0; k < std::max(1, std::max(T, S) - 1); ++k)
+      slopes.push_back(plan.origin + k * plan.step);
+  }
+  plan.blurTarget = cv::Vec2d(0, 0);
+  for (double slope : slopes) {
+    const cv::Vec2d v = interpolationVariance(T, S, slope);
+    plan.blurTarget = cv::Vec2d(std::max(plan.blurTarget[0], v[0]), std::max(plan.blurTarget[1], v[1]));
+  }
+}
+
 std::vector<double> slopeGrid(double first, double last, int n) {
   std::vector<double> slopes;
   if (n == 1) {
@@ -36,9 +52,15 @@ std::vector<double> slopeGrid(double first, double last, int n) {
   return slopes;
 }
 
+bool automaticRange(const Parameters& p) {
+  return std::isinf(p.firstSlope) || std::isinf(p.lastSlope);
+}
+
 SlopePlan uniformPlan(const Parameters& p, int T, int S) {
   require(T >= 1 && S >= 1,
           cv::format("T = %d, S = %d views; expected at least 1 view in each direction", T, S));
+  require(std::isfinite(p.firstSlope) && std::isfinite(p.lastSlope),
+          "a uniform plan needs a finite slope range");
   require(p.firstSlope <= p.lastSlope,
           cv::format("firstSlope = %g > lastSlope = %g; expected firstSlope <= lastSlope",
                      p.firstSlope, p.lastSlope));
@@ -46,11 +68,18 @@ SlopePlan uniformPlan(const Parameters& p, int T, int S) {
   if (T > 1 || S > 1) {
     n = p.numSlopes;
     if (n == 0) {
-      n = std::max(T, S) | 1;  // smallest odd number >= max(T, S)
-      require(n <= kMaxSlopes,
-              cv::format("numSlopes = 0 (automatic) would use %d slopes for %d x %d views; "
-                         "expected at most %d: check the axis order (T, S, V, U) or set "
-                         "numSlopes", n, T, S, kMaxSlopes));
+      // At most 2 / (N - 1) apart: n - 1 >= (last - first) (N - 1) / 2, rounded up to odd
+      // (so a range symmetric about 0 keeps slope 0). The 1e-9 absorbs rounding in
+      // ranges that are whole multiples of the spacing.
+      const double intervals = (p.lastSlope - p.firstSlope) * (std::max(T, S) - 1) / 2.0;
+      const double wanted = std::max(3.0, std::ceil(intervals - 1e-9) + 1);
+      const double odd = std::fmod(wanted, 2.0) == 0 ? wanted + 1 : wanted;
+      require(odd <= kMaxSlopes,
+              cv::format("numSlopes = 0 would use %.0f slopes for [%g, %g] and %d x %d views; "
+                         "expected at most %d: check the axis order (T, S, V, U), narrow the "
+                         "range or set numSlopes", odd, p.firstSlope, p.lastSlope, T, S,
+                         kMaxSlopes));
+      n = int(odd);
     }
     require(n == 1 || p.firstSlope < p.lastSlope,
             cv::format("firstSlope = lastSlope = %g with numSlopes = %d; expected "
@@ -62,6 +91,7 @@ SlopePlan uniformPlan(const Parameters& p, int T, int S) {
   plan.searched.assign(n, true);
   plan.origin = plan.slopes.front();
   plan.step = n > 1 ? (p.lastSlope - p.firstSlope) / (n - 1) : 0.0;
+  setBlurTarget(plan, T, S, false);
   return plan;
 }
 

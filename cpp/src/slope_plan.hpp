@@ -26,6 +26,10 @@ struct SlopePlan {
   std::vector<bool> searched;
   double origin = 0;
   double step = 0;  // 0 for a single slice
+  /// Interpolation blur (view pixels^2, along x and y) every slice is topped up to: the
+  /// largest any slice of the plan's grid carries (see interpolationVariance), so that
+  /// all slices are equally sharp whichever of them a call builds.
+  cv::Vec2d blurTarget{0, 0};
 
   int size() const { return int(slopes.size()); }
   /// Index of the slice nearest to `slope` on the grid (the slice a keypoint is
@@ -35,14 +39,25 @@ struct SlopePlan {
   bool adjacent(int k) const { return grid[k + 1] == grid[k] + 1; }
 };
 
+/// Sets plan.blurTarget for T x S views: the largest interpolation blur over the plan's
+/// slopes, or with `wholeGrid` over a full period of its grid origin + k * step (when
+/// (max(T, S) - 1) * step / 2 is a whole number of pixels, N - 1 positions), so that
+/// plans holding different parts of one grid blur alike.
+void setBlurTarget(SlopePlan& plan, int T, int S, bool wholeGrid);
+
 /// The slopes linspace(first, last, n); n == 1 gives the midpoint (first + last) / 2.
 std::vector<double> slopeGrid(double first, double last, int n);
 
-/// The uniform plan of `parameters` for T x S views: linspace(firstSlope, lastSlope,
-/// n), every slice searched; n = numSlopes, or for numSlopes = 0 the smallest odd
-/// number >= max(T, S) (the paper's rule); a single view has the one slope
-/// (firstSlope + lastSlope) / 2. Throws cv::Exception (StsOutOfRange) when the
-/// slopes are out of order or too many.
+/// Whether `parameters` ask for the automatic slope range (an infinite bound).
+bool automaticRange(const Parameters& parameters);
+
+/// The uniform plan of `parameters` (a finite range) for T x S views:
+/// linspace(firstSlope, lastSlope, n), every slice searched; n = numSlopes, or for
+/// numSlopes = 0 the smallest odd number that keeps neighbouring slices at most one
+/// pixel of parallax apart at the outermost view (spacing <= 2 / (max(T, S) - 1);
+/// for [-1, 1] the paper's rule, the smallest odd number >= max(T, S)); a single view
+/// has the one slope (firstSlope + lastSlope) / 2. Throws cv::Exception
+/// (StsOutOfRange) when the slopes are out of order, infinite or too many.
 SlopePlan uniformPlan(const Parameters& parameters, int T, int S);
 
 }  // namespace detail

@@ -5,7 +5,7 @@ from __future__ import annotations
 import inspect
 import os
 import textwrap
-from typing import NamedTuple, Optional, Tuple, Union
+from typing import List, NamedTuple, Optional, Tuple, Union
 
 import cv2
 import numpy as np
@@ -134,6 +134,20 @@ class LiFF(_core.LiFF):
         (see the class's Parameters). Raises TypeError for an unknown keyword or a value
         of the wrong type, ValueError for one out of range."""
         return cls(*args, **kwargs)
+
+    def slopesFor(self, *args) -> List[float]:
+        """The slopes of the focal slices, pixels per view step, increasing.
+
+        ``slopesFor(T, S)``: for a light field of T x S views with a finite slope range
+        (raises ValueError with an automatic one, whose slopes depend on the content).
+        ``slopesFor(lf)``: those detection would build for the light field ``lf``; with
+        an automatic range this runs its survey (docs/SLOPES.md), a few percent of a
+        detection. After a call, :meth:`getSlicesUsed` and :meth:`getSearchedSlopes`
+        give what it used.
+        """
+        if len(args) == 1:
+            return self._slopes_for_light_field(_as_light_field(args[0]))
+        return super().slopesFor(*args)
 
     def detect(self, lf, mask=None) -> KeyPoints:
         """Detects keypoints.

@@ -43,7 +43,9 @@ int slopeToClassId(double slope);
 /// throws cv::Exception (StsOutOfRange) naming the range expected.
 class CV_EXPORTS_W LiFF : public cv::Feature2D {
  public:
-  /// A detector with `parameters` (Parameters::check() applies).
+  /// A detector with `parameters` (Parameters::check() applies). With the default
+  /// firstSlope = -inf and lastSlope = +inf the focal stack's slopes are found from
+  /// each light field (docs/SLOPES.md); finite values set them by hand.
   static cv::Ptr<LiFF> create(const Parameters& parameters);
 
   /// A detector with cv::SIFT's positional parameters followed by LiFF's (the
@@ -80,10 +82,23 @@ class CV_EXPORTS_W LiFF : public cv::Feature2D {
   virtual void setMemoryLimitMB(double megabytes) = 0;
   virtual double getMemoryLimitMB() const = 0;
 
-  /// The slopes the focal stack is built at for a light field of T x S views
-  /// (resolves numSlopes = 0; a 1x1 light field has the single slope
-  /// (firstSlope + lastSlope) / 2).
+  /// The slopes of the focal slices for a light field of T x S views with a finite
+  /// slope range (resolves numSlopes = 0; a 1x1 light field has the single slope
+  /// (firstSlope + lastSlope) / 2). With an automatic range the slopes depend on the
+  /// light field's content: throws cv::Error::StsBadArg, use the overload below.
   virtual std::vector<double> slopesFor(int T, int S) const = 0;
+  /// The slopes of the focal slices detection would build for `lightField` (as
+  /// detectAndCompute takes it): for an automatic range this runs its survey
+  /// (docs/SLOPES.md), which costs a few percent of a detection.
+  virtual std::vector<double> slopesFor(cv::InputArray lightField) = 0;
+
+  /// The slopes of every focal slice the last completed detect/detectAndCompute/
+  /// compute call of this object built, increasing (empty before the first call).
+  virtual std::vector<double> getSlicesUsed() const = 0;
+  /// The slopes of the slices that call searched for extrema: each keypoint's slope
+  /// lies within half a slice spacing of one. The others were built only as the
+  /// neighbours a searched slice is compared with.
+  virtual std::vector<double> getSearchedSlopes() const = 0;
 
   cv::String getDefaultName() const override;
 };

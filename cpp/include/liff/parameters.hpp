@@ -12,6 +12,8 @@
 
 #include <opencv2/core.hpp>
 
+#include <limits>
+
 #define LIFF_PARAMETERS(X)                                                                      \
   X(int, nfeatures, NFeatures, 0,                                                               \
     "keep the nfeatures strongest features by response, with every feature tied with the "      \
@@ -23,13 +25,17 @@
   X(double, edgeThreshold, EdgeThreshold, 10.0,                                                 \
     "largest ratio of principal curvatures, as cv::SIFT; finite, >= 1")                         \
   X(double, sigma, Sigma, 1.6, "Gaussian sigma of the base octave, as cv::SIFT; in [0.01, 100]") \
-  X(double, firstSlope, FirstSlope, -1.0,                                                       \
-    "first slope of the focal stack, pixels per view step; finite, |slope| <= 1e4")             \
-  X(double, lastSlope, LastSlope, 1.0,                                                          \
-    "last slope of the focal stack, pixels per view step; finite, |slope| <= 1e4")              \
+  X(double, firstSlope, FirstSlope, -std::numeric_limits<double>::infinity(),                   \
+    "first slope of the focal stack, pixels per view step; -inf: automatic, from the light "    \
+    "field (docs/SLOPES.md); else |slope| <= 1e4")                                              \
+  X(double, lastSlope, LastSlope, std::numeric_limits<double>::infinity(),                      \
+    "last slope of the focal stack, pixels per view step; +inf: automatic, from the light "     \
+    "field (docs/SLOPES.md); else |slope| <= 1e4")                                              \
   X(int, numSlopes, NumSlopes, 0,                                                               \
-    "slopes in linspace(firstSlope, lastSlope, numSlopes); 0: the smallest odd number >= "      \
-    "max(T, S); in [0, 4096]")                                                                  \
+    "focal slices: with a finite range, linspace(firstSlope, lastSlope, numSlopes), and with "  \
+    "an automatic one that many evenly over the slopes found; 0: neighbouring slices at most "  \
+    "one pixel of parallax apart at the outermost view, 2 / (max(T, S) - 1), and with an "      \
+    "automatic range only where the scene has structure; in [0, 4096]")                         \
   X(int, descriptorType, DescriptorType, CV_32F,                                                \
     "descriptor element type, CV_32F (5) or CV_8U (0); SIFT's integers in [0, 255] either way") \
   X(bool, rootSift, RootSift, false,                                                            \

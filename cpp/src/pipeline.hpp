@@ -1,0 +1,43 @@
+// The detection and description passes over a light field's focal slices, given the
+// slices to use (a SlopePlan): what one call of the detector runs, and what the
+// automatic slope range runs on a decimated light field.
+#pragma once
+
+#include "detections.hpp"
+#include "light_field.hpp"
+#include "slice_window.hpp"
+#include "slope_plan.hpp"
+
+#include <liff/parameters.hpp>
+
+#include <opencv2/core.hpp>
+
+#include <vector>
+
+namespace liff {
+namespace detail {
+
+/// Everything one pass needs, fixed at its start.
+struct Call {
+  const Parameters& parameters;
+  const LightField& lf;
+  const SlopePlan& plan;
+  ScaleSpaceSettings settings;
+  int batch;        // slices built at once
+  int renderAhead;  // focal slices rendered ahead in slope order (detection)
+};
+
+/// compute(): describes `keypoints`, each on the plan's slice nearest its slope, and
+/// drops those whose packed octave/layer this light field's pyramid lacks (as
+/// cv::Feature2D does). Each needed scale space is built once, `batch` at a time.
+void describeProvidedKeypoints(const Call& call, std::vector<cv::KeyPoint>& keypoints,
+                               bool wantDescriptors, cv::Mat& descriptors);
+
+/// Detection over the plan's searched slices: a window sliding along the slopes holds
+/// the scale spaces of the slices being searched and their grid neighbours; each batch
+/// of searched slices is built, searched (and described) in parallel, and results are
+/// concatenated in slice order. Keypoints only inside `mask` (if not empty).
+Detections detectInSlices(const Call& call, const cv::Mat& mask, bool wantDescriptors);
+
+}  // namespace detail
+}  // namespace liff

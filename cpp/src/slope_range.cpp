@@ -1,0 +1,327 @@
+#include "slope_range.hpp"
+
+#include "focal_stack.hpp"
+#include "pipeline.hpp"
+#include "scale_space.hpp"
+
+#include <liff/liff.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <iterator>
+#include <map>
+#include <set>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+
+namespace liff {
+namespace detail {
+namespace {
+
+/// Coarsest decimation of the survey, and the one it ends at when views allow.
+constexpr int kCoarsestDecimation = 16;
+constexpr int kFinestDecimation = 4;
+/// A surveyed level needs views of at least this many pixels on the smaller side.
+constexpr int kSmallestSurveyView = 16;
+/// The survey detects with this fraction of the contrast threshold: its DoG is
+/// coarser than the features it stands for, whose full-resolution contrast is higher.
+const double kSurveyContrastFactor = std::getenv("LIFF_SCF") ? std::atof(std::getenv("LIFF_SCF")) : 1.0;
+/// A finer level searches within this many of the coarser level's spacings of its slopes.
+const double kCandidateReach = std::getenv("LIFF_REACH") ? std::atof(std::getenv("LIFF_REACH")) : 1.0;
+/// Features whose views add up less coherently than this are ghosts or noise.
+constexpr double kMinCoherence = 0.5;
+/// A slope searched over the whole range counts when it holds more than this many
+/// times the median number of features per slope.
+const double kDensityFactor = std::getenv("LIFF_DF") ? std::atof(std::getenv("LIFF_DF")) : 3.0;
+/// The paper's rule of thumb, the range used when the survey finds nothing.
+constexpr double kPaperRange = 1.0;
+
+// Intervals of slopes [a, b], merged where they touch.
+using Intervals = std::vector<std::pair<double, double>>;
+
+Intervals merged(std::vector<std::pair<double, double>> spans) {
+  std::sort(spans.begin(), spans.end());
+  Intervals out;
+  for (const auto& span : spans) {
+    if (!out.empty() && span.first <= out.back().second)
+      out.back().second = std::max(out.back().second, span.second);
+    else
+      out.push_back(span);
+  }
+  return out;
+}
+
+// Grid positions k (slope k * step) with a slope in one of `intervals` and in [lo, hi].
+std::set<long> positionsIn(const Intervals& intervals, double step, double lo, double hi) {
+  std::set<long> positions;
+  for (const auto& [a, b] : intervals) {
+    const long first = long(std::ceil(std::max(a, lo) / step - 1e-9));
+    const long last = long(std::floor(std::min(b, hi) / step + 1e-9));
+    for (long k = first; k <= last; ++k) positions.insert(k);
+  }
+  return positions;
+}
+
+// The plan of grid positions `searched` (slopes k * step), each with its grid
+// neighbours as unsearched guards where they are not searched themselves.
+SlopePlan guardedPlan(std::set<long> searched, double step, int T, int S) {
+  // A one-position gap between two runs would be built as both runs' guard anyway:
+  // search it too.
+  for (auto it = searched.begin(); it != searched.end(); ++it) {
+    const auto next = std::next(it);
+    if (next != searched.end() && *next == *it + 2) searched.insert(*it + 1);
+  }
+  std::set<long> all(searched);
+  for (long k : searched) {
+    all.insert(k - 1);
+    all.insert(k + 1);
+  }
+  SlopePlan plan;
+  plan.origin = 0;
+  plan.step = step;
+  for (long k : all) {
+    plan.grid.push_back(int(k));
+    plan.slopes.push_back(double(k) * step);
+    plan.searched.push_back(searched.count(k) > 0);
+  }
+  setBlurTarget(plan, T, S, true);
+  return plan;
+}
+
+// The coherent features of one survey level, as full-resolution slopes: LiFF's
+// detection on `small` (the light field decimated `factor` times) over the grid
+// positions `searched` of spacing `step` (full-resolution units).
+std::vector<double> surveyLevel(const LightField& small, int factor, const std::set<long>& searched,
+                                double step, const Parameters& p, int batch) {
+  SlopePlan plan = guardedPlan(searched, step / factor, small.T, small.S);
+  Parameters survey = p;
+  survey.contrastThreshold *= kSurveyContrastFactor;
+  if (std::getenv("LIFF_SL")) {  // DoG layers of the survey's scale spaces
+    const int layers = std::atoi(std::getenv("LIFF_SL"));
+    survey.contrastThreshold *= double(layers) / p.nOctaveLayers;
+    survey.nOctaveLayers = layers;
+  }
+  survey.nfeatures = 0;
+  const int octaves = numOctaves(small.viewSize());
+  const Call call{survey, small, plan, ScaleSpaceSettings{survey.nOctaveLayers, p.sigma, octaves, true},
+                  batch, std::max(kSlicesPerPass, batch + 1)};
+  const std::clock_t c0 = std::clock();
+  const Detections found = detectInSlices(call, cv::Mat(), false);
+  const std::clock_t c1 = std::clock();
+  // One coherence test per extremum (its orientations share position, size and slope).
+  std::vector<cv::KeyPoint> unique;
+  for (const cv::KeyPoint& kp : found.keypoints)
+    if (unique.empty() || unique.back().pt != kp.pt || unique.back().size != kp.size ||
+        unique.back().class_id != kp.class_id)
+      unique.push_back(kp);
+  std::vector<double> coherence(unique.size());
+  cv::parallel_for_(cv::Range(0, int(unique.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i)
+      coherence[i] = viewCoherence(small, unique[i], keypointSlope(unique[i]), survey.nOctaveLayers);
+  });
+  std::vector<double> slopes;
+  for (size_t i = 0; i < unique.size(); ++i)
+    if (coherence[i] >= kMinCoherence) slopes.push_back(keypointSlope(unique[i]) * factor);
+  if (std::getenv("LIFF_DEBUG_SURVEY"))
+    std::fprintf(stderr, "  detect %.3f s cpu, coherence of %zu: %.3f s cpu\n", double(c1 - c0) / CLOCKS_PER_SEC, unique.size(), double(std::clock() - c1) / CLOCKS_PER_SEC);
+  return slopes;
+}
+
+// Bilinear sample of one view row block at (x, y); the caller keeps it inside.
+float sample(const float* view, int U, float x, float y) {
+  const int x0 = int(x), y0 = int(y);
+  const float fx = x - x0, fy = y - y0;
+  const float* r0 = view + size_t(y0) * U + x0;
+  const float* r1 = r0 + U;
+  return (1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]);
+}
+
+}  // namespace
+
+double sliceSpacing(int T, int S) {
+  const int n = std::max(T, S);
+  return n > 1 ? 2.0 / (n - 1) : 0.0;
+}
+
+double largestSlope(int T, int S, int V, int U) {
+  const int n = std::max(T, S);
+  const double k = std::getenv("LIFF_KR") ? std::atof(std::getenv("LIFF_KR")) : 4.0;
+  return n > 1 ? std::min(V, U) / (k * (n - 1)) : 0.0;
+}
+
+double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope, int layers) {
+  // b_v = sum_q w(q) L_v(p_v + q), w = G(k sigma) - G(sigma) the keypoint's DoG,
+  // sampled every sigma (enough for a statistic of smooth Gaussians) within 3 k sigma.
+  const float sigma = std::max(0.5f, kp.size * 0.5f);
+  const float k = std::pow(2.f, 1.f / layers), wide = k * sigma;
+  const float stepQ = std::max(1.f, sigma);
+  const int reach = int(std::ceil(3 * wide / stepQ));
+  const float radius = reach * stepQ;
+  std::vector<float> weights;
+  std::vector<cv::Point2f> offsets;
+  for (int i = -reach; i <= reach; ++i)
+    for (int j = -reach; j <= reach; ++j) {
+      const float dx = j * stepQ, dy = i * stepQ, r2 = dx * dx + dy * dy;
+      const float g1 = std::exp(-r2 / (2 * sigma * sigma)) / (sigma * sigma);
+      const float g2 = std::exp(-r2 / (2 * wide * wide)) / (wide * wide);
+      weights.push_back(g2 - g1);
+      offsets.emplace_back(dx, dy);
+    }
+  const double tc = 0.5 * (lf.T - 1), sc = 0.5 * (lf.S - 1);
+  double sum = 0, sumSquares = 0;
+  int used = 0;
+  for (int t = 0; t < lf.T; ++t)
+    for (int s = 0; s < lf.S; ++s) {
+      const float x = float(kp.pt.x - slope * (s - sc)), y = float(kp.pt.y - slope * (t - tc));
+      if (x - radius < 0 || y - radius < 0 || x + radius > lf.U - 1.001f ||
+          y + radius > lf.V - 1.001f)
+        continue;
+      const float* view = lf.view(t, s);
+      const float* alpha = lf.weights.empty() ? nullptr : lf.weights.ptr<float>((t * lf.S + s) * lf.V);
+      double b = 0, a = 0, total = 0;
+      for (size_t q = 0; q < weights.size(); ++q) {
+        const float qx = x + offsets[q].x, qy = y + offsets[q].y;
+        b += weights[q] * sample(view, lf.U, qx, qy);
+        if (alpha) {
+          a += std::abs(weights[q]) * sample(alpha, lf.U, qx, qy);
+          total += std::abs(weights[q]);
+        }
+      }
+      if (alpha) {
+        // Premultiplied values: divide by the patch's mean weight; skip mostly invalid views.
+        const double meanWeight = a / total;
+        if (!(meanWeight > 0.5 * lf.maxWeight)) continue;
+        b /= meanWeight;
+      }
+      sum += b;
+      sumSquares += b * b;
+      ++used;
+    }
+  if (2 * used < lf.T * lf.S || !(sumSquares > 0)) return -1;
+  return sum * sum / (used * sumSquares);
+}
+
+// The slopes of `found` whose grid position (spacing `step`) holds at least
+// kDensityFactor times the median count over the searched `positions`.
+std::vector<double> dense(const std::vector<double>& found, const std::set<long>& positions,
+                          double step) {
+  std::map<long, int> count;
+  for (long k : positions) count[k] = 0;
+  for (double m : found) ++count[std::lround(m / step)];
+  std::vector<int> counts;
+  for (const auto& [k, c] : count) counts.push_back(c);
+  if (counts.empty()) return found;
+  std::nth_element(counts.begin(), counts.begin() + counts.size() / 2, counts.end());
+  const double bar = kDensityFactor * counts[counts.size() / 2];
+  std::vector<double> kept;
+  for (double m : found)
+    if (count[std::lround(m / step)] > bar) kept.push_back(m);
+  return kept;
+}
+
+static double knob(const char* name, double value) {
+  const char* v = std::getenv(name);
+  return v ? std::atof(v) : value;
+}
+
+SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, double hi,
+                         int batch) {
+  SlopeSurvey survey;
+  const double unit = sliceSpacing(lf.T, lf.S);
+  const double reach = largestSlope(lf.T, lf.S, lf.V, lf.U);
+  const int side = std::min(lf.V, lf.U);
+  const int smallest = int(knob("LIFF_SV", 32));
+  int finest = 4;
+  while (finest > 1 && side / finest < 32) finest /= 2;
+  if (finest < 2) return survey;  // views too small to survey
+  int factor = finest;
+  while (factor < kCoarsestDecimation && side / (factor * 2) >= smallest) factor *= 2;
+  // The levels' light fields, finest first, each from the last (one pass over the
+  // full light field in all).
+  std::vector<LightField> levels{decimate(lf, finest)};
+  for (int f = finest * 2; f <= factor; f *= 2) levels.push_back(decimate(levels.back(), 2));
+  Intervals candidates{{std::max(lo, -reach), std::min(hi, reach)}};
+  bool coarsest = true, sweepingAll = true;
+  for (int level = int(levels.size()) - 1; level >= 0; --level, factor /= 2) {
+    // One pixel of parallax at the outermost view, at the resolution the level's scale
+    // space starts from (its first octave doubles the decimated views).
+    const double step = unit * factor / 2 * (coarsest ? knob("LIFF_CSS", 1) : 1);
+    const std::set<long> positions = positionsIn(candidates, step, lo, hi);
+    const std::vector<double> found = surveyLevel(levels[level], factor, positions, step, p, batch);
+    ++survey.levels;
+    if (std::getenv("LIFF_DEBUG_SURVEY")) {
+      double mn = 1e9, mx = -1e9;
+      for (double m : found) { mn = std::min(mn, m); mx = std::max(mx, m); }
+      std::fprintf(stderr, "survey f=%d step=%.3f searched=%zu coherent=%zu (%.2f..%.2f)\n", factor, step, positions.size(), found.size(), mn, mx);
+    }
+    // Where a level searched every slope, keep only slopes with clearly more features
+    // than the typical slope: with few views, textures make random extrema at every
+    // wrong slope (a few per slope), structure makes many at its own.
+    const std::vector<double> kept = sweepingAll ? dense(found, positions, step) : found;
+    coarsest = false;
+    sweepingAll = sweepingAll && kept.empty();
+    survey.slopes = kept;
+    survey.spacing = step;
+    // Nothing at this level: structure may still be too small for it; the next level
+    // searches the same slopes.
+    if (kept.empty()) continue;
+    std::vector<std::pair<double, double>> spans;
+    for (double m : kept) spans.emplace_back(m - kCandidateReach * step, m + kCandidateReach * step);
+    candidates = merged(spans);
+  }
+  return survey;
+}
+
+SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
+  const double lo = p.firstSlope, hi = p.lastSlope;  // infinite for "automatic"
+  const double unit = sliceSpacing(lf.T, lf.S);
+  if (unit == 0) {  // a single view: one slice
+    SlopePlan plan;
+    plan.slopes = {std::isfinite(lo) ? lo : std::isfinite(hi) ? hi : 0.0};  // as slopesFor
+    plan.grid = {0};
+    plan.searched = {true};
+    return plan;  // (no interpolation blur: one view, never shifted)
+  }
+  const SlopeSurvey survey = surveySlopes(lf, p, lo, hi, batch);
+  Intervals occupied;
+  if (survey.levels == 0) {  // views too small to survey: every slope that could be
+    const double reach = largestSlope(lf.T, lf.S, lf.V, lf.U);
+    occupied = {{-reach, reach}};
+  } else if (survey.slopes.empty()) {
+    occupied = {{-kPaperRange, kPaperRange}};
+  } else {
+    // A surveyed slope m stands for features within the level's half spacing of it;
+    // the slices that could hold their extrema lie within half a slice spacing more.
+    const double reach = 0.5 * unit + (std::getenv("LIFF_PM") ? std::atof(std::getenv("LIFF_PM")) : 0.25) * survey.spacing;
+    std::vector<std::pair<double, double>> spans;
+    for (double m : survey.slopes) spans.emplace_back(m - reach, m + reach);
+    occupied = merged(spans);
+  }
+  const std::set<long> searched = positionsIn(occupied, unit, lo, hi);
+  if (p.numSlopes == 0 || searched.empty()) return guardedPlan(searched, unit, lf.T, lf.S);
+  Parameters uniform = p;
+  uniform.firstSlope = double(*searched.begin()) * unit;
+  uniform.lastSlope = double(*searched.rbegin()) * unit;
+  if (uniform.firstSlope == uniform.lastSlope) uniform.numSlopes = 1;
+  return uniformPlan(uniform, lf.T, lf.S);
+}
+
+SlopePlan describingPlan(int T, int S, const std::vector<double>& slopes) {
+  const double unit = sliceSpacing(T, S);
+  CV_Assert(unit > 0);
+  std::set<long> positions;
+  for (double m : slopes) positions.insert(std::lround(m / unit));
+  SlopePlan plan;
+  plan.step = unit;
+  for (long k : positions) {
+    plan.grid.push_back(int(k));
+    plan.slopes.push_back(double(k) * unit);
+    plan.searched.push_back(true);
+  }
+  setBlurTarget(plan, T, S, true);
+  return plan;
+}
+
+}  // namespace detail
+}  // namespace liff

@@ -1,0 +1,68 @@
+// The automatic slope range: which focal slices a light field needs, found from its
+// pixels by a coarse-to-fine pre-pass (docs/SLOPES.md has the method and its maths).
+#pragma once
+
+#include "light_field.hpp"
+#include "slope_plan.hpp"
+
+#include <liff/parameters.hpp>
+
+#include <opencv2/core.hpp>
+
+#include <utility>
+#include <vector>
+
+namespace liff {
+namespace detail {
+
+/// Slice spacing for T x S views: one pixel of parallax at the outermost view,
+/// 2 / (max(T, S) - 1) pixels per view step (0 for a single view).
+double sliceSpacing(int T, int S);
+
+/// Largest |slope| the automatic range considers: the outermost view moves a quarter
+/// of the smaller view side, min(V, U) / (2 (max(T, S) - 1)); beyond it too little of
+/// the views overlaps to focus anything.
+double largestSlope(int T, int S, int V, int U);
+
+/// Share of the views' energy that adds up coherently at a keypoint: with b_v the
+/// DoG response (at the keypoint's scale) of view v sampled where the keypoint's
+/// slope puts it, kappa = (sum_v b_v)^2 / (n sum_v b_v^2), in [0, 1]. A real feature
+/// seen alike by the views gives about 1; a ghost (one view's copy of a feature that
+/// lies at another slope) or noise about 1 / n. Views whose patch leaves the view,
+/// or (with alpha) is mostly invalid, are left out; -1 when fewer than half remain.
+/// `keypoint` is in `lf`'s pixels and its slope in `lf`'s pixels per view step.
+double viewCoherence(const LightField& lf, const cv::KeyPoint& keypoint, double slope,
+                     int layers);
+
+/// What the pre-pass found: the slopes of the coherent features of its finest level
+/// (full-resolution pixels per view step) and that level's slice spacing.
+struct SlopeSurvey {
+  std::vector<double> slopes;
+  double spacing = 0;
+  int levels = 0;  // decimation levels run (0: views too small, nothing run)
+};
+
+/// Runs the pre-pass: LiFF's own detection (parameters `p`, contrast threshold halved)
+/// on the light field decimated 16, 8 and 4 times (those that leave views of at least
+/// 16 pixels), the coarsest over all slopes within [lo, hi] and +-largestSlope, each
+/// finer one only around the slopes of the coherent features of the last; features
+/// whose viewCoherence is below one half are dropped as ghosts or noise.
+SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, double hi,
+                         int batch);
+
+/// The automatic plan: the slices on the grid k * sliceSpacing (k whole) within half a
+/// spacing, plus the survey's uncertainty, of a surveyed slope, each searched, and their
+/// grid neighbours as unsearched guards; gaps between surveyed slopes are skipped.
+/// With numSlopes > 0, that many slices evenly over the surveyed range instead, all
+/// searched. Slopes outside finite bounds [lo, hi] are dropped. When the survey finds
+/// nothing (a blank light field), the plan spans the paper's [-1, 1] within the bounds;
+/// views too small to survey (under 32 pixels) get every slope up to largestSlope.
+SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch);
+
+/// compute() with an automatic range and several views: the slices of the grid
+/// k * sliceSpacing nearest each of `slopes` (the given keypoints'), the slices
+/// detection describes them on.
+SlopePlan describingPlan(int T, int S, const std::vector<double>& slopes);
+
+}  // namespace detail
+}  // namespace liff

@@ -131,6 +131,23 @@ SEEDS.update({
 })
 
 
+SEEDS.update({
+    "views": {
+        **SEEDS["views"],
+        "scene-id-prefix": readers.pack_folder({f"0421_{t:02d}_{s:02d}.png": view(2 * t + s)
+                                                for t in range(2) for s in range(2)}),
+        "block-8-10": readers.pack_folder({f"cam_{t}_{s}.png": view(t + s)
+                                           for t in (8, 9, 10) for s in (8, 9)}),
+        "cross-3x3": readers.pack_folder({f"v_{t}_{s}.png": view(t + s)
+                                          for t, s in ((0, 1), (1, 0), (1, 1), (1, 2), (2, 1))}),
+        "not-symmetric": readers.pack_folder({f"v_{t}_{s}.png": view(t + s)
+                                              for t, s in ((0, 1), (1, 0), (1, 1), (1, 2), (2, 1), (0, 0))}),
+        "two-scenes": readers.pack_folder({f"{scene}_0_{s}.png": view(s)
+                                           for scene in (421, 422) for s in range(2)}),
+    },
+})
+
+
 # Reproducers of bugs found by fuzzing: fuzz/corpus/<reader>/bug-<id> once fixed,
 # fuzz/known_bugs/<reader>/<id> while listed in readers.KNOWN_BUGS.
 def with_cfg(cfg):

@@ -1,0 +1,211 @@
+"""Reading the captures people have (issue 12, section 2): view names with a scene id,
+view blocks that do not start at 0 or 1, and incomplete view sets."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+import liff
+from liff import io, synthetic
+from liff.cli import main
+from liff.feature_file import load_features
+
+from test_io_readers import COTTON, coded_lf, raises_naming
+
+
+def write_named(folder: Path, lf: np.ndarray, name, views=None) -> None:
+    """Writes the views ``views`` (default all) of ``lf`` as ``name(t, s)``."""
+    folder.mkdir(parents=True, exist_ok=True)
+    T, S = lf.shape[:2]
+    for t, s in views if views is not None else [(t, s) for t in range(T) for s in range(S)]:
+        assert cv2.imwrite(str(folder / name(t, s)), lf[t, s])
+
+
+def cross(T: int, S: int) -> set:
+    return {(t, s) for t in range(T) for s in range(S) if t == T // 2 or s == S // 2}
+
+
+def star(T: int, S: int) -> set:
+    return cross(T, S) | {(t, s) for t in range(T) for s in range(S)
+                          if abs(t - T // 2) == abs(s - S // 2)}
+
+
+# ---------------------------------------------------------------- view names and blocks
+
+@pytest.mark.parametrize("name", [
+    lambda t, s: f"0421_{t:02d}_{s:02d}.png",          # Lytro dataset: scene 421, row, column
+    lambda t, s: f"IMG_0421_{t + 1}_{s + 1}.png",       # a scene id, 1-based and unpadded
+    lambda t, s: f"view_{t:02d}_{s:02d}_0001.png",      # a frame number after the indices
+    lambda t, s: f"out_{t:02d}_{s:02d}_{100.5 + t:.6f}_{-3.25 * s:.6f}.png",  # gantry positions
+])
+def test_view_indices_are_found_beside_scene_ids_and_frame_numbers(tmp_path, name):
+    lf = coded_lf((3, 4, 5, 6, 3))
+    write_named(tmp_path, lf, name)
+    result = io.read_views(tmp_path)
+    np.testing.assert_array_equal(result.light_field, lf)
+    assert result.metadata["grid"] == (3, 4) and result.metadata["missing"] == []
+
+
+def test_scene_id_with_one_row_of_views(tmp_path):
+    """Row index 0 in every name, like the scene id: the last pair is still (t, s)."""
+    lf = coded_lf((1, 5, 4, 4))
+    write_named(tmp_path, lf, lambda t, s: f"0421_{t:02d}_{s:02d}.png")
+    result = io.read_views(tmp_path)
+    assert result.light_field.shape == (1, 5, 4, 4)
+    np.testing.assert_array_equal(result.light_field, lf)
+
+
+def test_two_scenes_in_one_folder_are_refused(tmp_path):
+    lf = coded_lf((2, 2, 4, 4))
+    write_named(tmp_path, lf, lambda t, s: f"0421_{t:02d}_{s:02d}.png")
+    write_named(tmp_path, lf, lambda t, s: f"0422_{t:02d}_{s:02d}.png")
+    raises_naming(tmp_path, r"names hold 3 _-joined numbers and more than two of them vary "
+                  r"\(e\.g\. 0421_00_00\.png and 0422_01_01\.png: several light fields in one "
+                  r"folder\?\)", io.read_views, tmp_path)
+
+
+def test_names_numbered_two_ways_are_refused(tmp_path):
+    lf = coded_lf((2, 2, 4, 4))
+    write_named(tmp_path, lf, lambda t, s: f"0421_{t:02d}_{s:02d}.png")
+    cv2.imwrite(str(tmp_path / "scene_0_0.png"), lf[0, 0])
+    raises_naming(tmp_path, r"runs of different lengths .*scene_0_0\.png \(2 numbers\) and "
+                  r"0421_00_00\.png \(3 numbers\)", io.read_views, tmp_path)
+
+
+def test_a_crop_of_a_larger_grid_reads_with_or_without_grid_and_pattern(tmp_path):
+    """Rows and columns 8..10 of a 17x17 gantry grid."""
+    lf = coded_lf((3, 3, 5, 4, 3))
+    write_named(tmp_path, lf, lambda t, s: f"cam_{t + 8}_{s + 8}.png")
+    for options in ({}, {"grid": (3, 3)}, {"pattern": r"cam_(?P<t>\d+)_(?P<s>\d+)\.png"},
+                    {"grid": (3, 3), "pattern": r"cam_(?P<t>\d+)_(?P<s>\d+)\.png"}):
+        result = io.read_views(tmp_path, **options)
+        np.testing.assert_array_equal(result.light_field, lf)
+        assert result.metadata["first_index"] == (8, 8)
+        assert result.metadata["files"][0][0] == "cam_8_8.png"
+    # the block's own axes: rows 8..10, columns 3..5
+    other = tmp_path / "offset"
+    write_named(other, lf, lambda t, s: f"cam_{t + 8}_{s + 3}.png")
+    assert io.read_views(other).metadata["first_index"] == (8, 3)
+    # a grid larger than the names can fill is an incomplete set that is not a pattern
+    raises_naming(tmp_path, r"280 views missing for a 17x17 grid \(numbered from t=8, s=8\): "
+                  r"\(t=8, s=11\).* but the centre row and column lack", io.read_views,
+                  tmp_path, grid=(17, 17))
+
+
+def test_cli_reads_a_crop_with_grid_and_pattern(tmp_path, capsys):
+    lf = (synthetic.textured_layers((3, 3, 64, 64), noise_variance=0).light_field * 255).astype(np.uint8)
+    write_named(tmp_path / "crop", lf, lambda t, s: f"cam_{t + 8}_{s + 8}.png")
+    out = tmp_path / "f.npz"
+    assert main(["detect", str(tmp_path / "crop"), "--out", str(out), "--grid", "3", "3",
+                 "--pattern", r"cam_(?P<t>\d+)_(?P<s>\d+)\.png"]) == 0
+    assert load_features(out).meta["shape"] == [3, 3, 64, 64]
+
+
+# ---------------------------------------------------------------- incomplete view sets
+
+@pytest.mark.parametrize("pattern", [cross, star])
+@pytest.mark.parametrize("dtype, channels, full", [(np.uint8, (3,), 255), (np.uint8, (), 255),
+                                                   (np.uint16, (3,), 65535)])
+def test_cross_and_star_read_as_the_grid_with_alpha(tmp_path, pattern, dtype, channels, full):
+    lf = coded_lf((5, 5, 4, 6) + channels, dtype)
+    present = pattern(5, 5)
+    write_named(tmp_path, lf, lambda t, s: f"v_{t}_{s}.png", present)
+    result = io.read_views(tmp_path)
+    out = result.light_field
+    C = channels[0] if channels else 1
+    assert out.shape == (5, 5, 4, 6, C + 1) and out.dtype == dtype
+    assert result.metadata["added_alpha"] is True
+    assert result.metadata["missing"] == sorted(set(np.ndindex(5, 5)) - present)
+    for t, s in np.ndindex(5, 5):
+        if (t, s) in present:
+            np.testing.assert_array_equal(out[t, s, ..., :C], lf[t, s].reshape(4, 6, C))
+            assert (out[t, s, ..., C] == full).all()
+            assert result.metadata["files"][t][s] == f"v_{t}_{s}.png"
+        else:
+            assert not out[t, s].any() and result.metadata["files"][t][s] is None
+
+
+def test_incomplete_views_with_alpha_keep_their_channels(tmp_path):
+    lf = coded_lf((3, 3, 4, 4, 4))
+    write_named(tmp_path, lf, lambda t, s: f"v_{t}_{s}.png", cross(3, 3))
+    result = io.read_views(tmp_path)
+    assert result.light_field.shape == (3, 3, 4, 4, 4) and result.metadata["added_alpha"] is False
+    np.testing.assert_array_equal(result.light_field[1, 0], lf[1, 0])
+    assert not result.light_field[0, 0].any()
+
+
+@pytest.mark.parametrize("present, expected", [
+    (set(np.ndindex(5, 5)) - {(0, 3)}, r"view \(t=4, s=1\) is present but its mirror image about "
+                                        r"the centre \(t=0, s=3\) is not"),
+    (cross(5, 5) - {(2, 1)}, r"the centre row and column lack 1 view\(s\), e\.g\. \(t=2, s=1\)"),
+    ({(0, 0), (4, 4), (2, 2)}, r"the centre row and column lack 8 view\(s\)"),  # symmetric, sparse
+])
+def test_incomplete_sets_that_are_not_a_pattern_are_refused(tmp_path, present, expected):
+    lf = coded_lf((5, 5, 4, 4))
+    write_named(tmp_path, lf, lambda t, s: f"v_{t}_{s}.png", present)
+    raises_naming(tmp_path, r"views missing for a 5x5 grid .*expected every view, or an incomplete "
+                  r"set holding the centre row and column and symmetric about the centre \(a cross "
+                  r"or star of views\), but " + expected, io.read_views, tmp_path)
+
+
+def test_huge_indices_are_refused_without_allocating(tmp_path):
+    lf = coded_lf((1, 2, 4, 4))
+    cv2.imwrite(str(tmp_path / "v_0_0.png"), lf[0, 0])
+    cv2.imwrite(str(tmp_path / "v_1000000_1000000.png"), lf[0, 1])
+    raises_naming(tmp_path, r"views missing for a 1000001x1000001 grid .* the centre row and "
+                  r"column lack 2000001 view\(s\)", io.read_views, tmp_path)
+
+
+def test_liff_on_a_cross_finds_the_slopes_of_the_full_grid(tmp_path, blob_scene):
+    """The missing views' alpha 0 keeps them out of the focal stack: the cross finds the
+    blobs at their slopes, with the contrast of the full grid, whereas the same views as
+    black images (alpha dropped) darken every focal slice to 9/25 of it."""
+    blobs, lf = blob_scene
+    grey = np.round(lf * 255).astype(np.uint8)
+    write_named(tmp_path, grey, lambda t, s: f"0421_{t:02d}_{s:02d}.png", cross(5, 5))
+    subset = io.read_views(tmp_path).light_field
+    truth = np.array([(b.x, b.y) for b in blobs]), np.array([b.slope for b in blobs])
+
+    def on_blobs(kps):
+        """(slope errors, responses) of the keypoints within 1.5 px of a blob."""
+        pts = np.array([k.pt for k in kps]).reshape(-1, 2)
+        d = np.sqrt(((pts[:, None] - truth[0][None]) ** 2).sum(-1))
+        near = d.min(1) < 1.5
+        errors = np.abs(liff.keypoint_slopes(kps)[near] - truth[1][d.argmin(1)[near]])
+        return errors, np.array([k.response for k in kps])[near]
+
+    full_errors, full_response = on_blobs(liff.LiFF.create().detect(grey))
+    cross_errors, cross_response = on_blobs(liff.LiFF.create().detect(subset))
+    assert len(cross_errors) >= 0.9 * len(full_errors) and len(cross_errors) >= 12
+    assert np.median(cross_errors) < 0.05 and np.median(full_errors) < 0.05
+    assert np.median(cross_response) == pytest.approx(np.median(full_response), rel=0.25)
+    _, black_response = on_blobs(liff.LiFF.create().detect(subset[..., 0]))
+    assert np.median(black_response) == pytest.approx(9 / 25 * np.median(cross_response), rel=0.25)
+
+
+def test_cotton_star_and_cross_are_as_accurate_as_the_full_grid(tmp_path):
+    """docs/INPUTS.md's figures (benchmarks/incomplete_views.py): median slope error on
+    cotton, slopes -2..2 (9 slopes): full 0.018, star 0.020, cross 0.023."""
+    if not COTTON.is_dir():
+        pytest.skip(f"HCI 'cotton' light field not found at {COTTON}")
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from hci_depth import truth_at
+    from incomplete_views import read_subset, subsets
+
+    scene = io.read_hci(COTTON)
+    medians = {}
+    for name in ("star", "cross"):
+        folder = tmp_path / name
+        folder.mkdir()
+        subset = read_subset(scene.light_field, subsets(9, 9)[name], str(folder))
+        kps = liff.LiFF.create(firstSlope=-2, lastSlope=2).detect(subset)
+        pts = np.array([k.pt for k in kps]).reshape(-1, 2)
+        medians[name] = np.median(np.abs(liff.keypoint_slopes(kps) - truth_at(scene.gt_disparity, pts)))
+        assert len(kps) > 100
+    assert medians["star"] == pytest.approx(0.020, abs=0.002)
+    assert medians["cross"] == pytest.approx(0.023, abs=0.002)

@@ -131,6 +131,15 @@ SEEDS.update({
 })
 
 
+def lenslet_png(n=5, size=(8, 9), alpha=True):
+    from liff import synthetic
+
+    lf = synthetic.textured_layers((n, n) + size, noise_variance=0).light_field
+    capture = synthetic.lenslet_capture(lf, border=0)
+    image = capture.transpose(2, 0, 3, 1, 4).reshape(size[0] * n, size[1] * n, 4)
+    return png(image if alpha else image[..., :3])
+
+
 SEEDS.update({
     "views": {
         **SEEDS["views"],
@@ -144,6 +153,12 @@ SEEDS.update({
                                               for t, s in ((0, 1), (1, 0), (1, 1), (1, 2), (2, 1), (0, 0))}),
         "two-scenes": readers.pack_folder({f"{scene}_0_{s}.png": view(s)
                                            for scene in (421, 422) for s in range(2)}),
+    },
+    "eslf-detect": {
+        "lenslet-5-alpha": lenslet_png(5),
+        "lenslet-4-no-alpha": lenslet_png(4, alpha=False),
+        "noise": png(np.random.default_rng(0).integers(0, 256, (40, 45), dtype=np.uint8)),
+        "corrupt": png(np.zeros((4, 4), np.uint8))[:25],
     },
 })
 

@@ -1,9 +1,11 @@
 """Reading the captures people have (issue 12, section 2): view names with a scene id,
-view blocks that do not start at 0 or 1, and incomplete view sets."""
+view blocks that do not start at 0 or 1, incomplete view sets, and ESLF lenslet sizes
+other than 14."""
 
 from __future__ import annotations
 
 import sys
+import warnings
 from pathlib import Path
 
 import cv2
@@ -209,3 +211,78 @@ def test_cotton_star_and_cross_are_as_accurate_as_the_full_grid(tmp_path):
         assert len(kps) > 100
     assert medians["star"] == pytest.approx(0.020, abs=0.002)
     assert medians["cross"] == pytest.approx(0.023, abs=0.002)
+
+
+# ---------------------------------------------------------------- ESLF lenslet size
+
+def lenslet_image(n: int, alpha: bool = True, size=(48, 56), seed: int = 0) -> np.ndarray:
+    """A Lytro-like lenslet image: n x n views, vignetted lenslets (alpha 0 outside the
+    lenslet circle), as ESLF."""
+    lf = synthetic.textured_layers((n, n) + size, seed=seed).light_field
+    capture = synthetic.lenslet_capture(lf, border=0)
+    image = capture.transpose(2, 0, 3, 1, 4).reshape(size[0] * n, size[1] * n, 4)
+    return image if alpha else np.ascontiguousarray(image[..., :3])
+
+
+@pytest.mark.parametrize("n", [9, 13, 14, 15, 16])
+@pytest.mark.parametrize("alpha", [True, False])
+def test_lenslet_size_is_detected(tmp_path, n, alpha):
+    image = lenslet_image(n, alpha)
+    path = tmp_path / "capture_eslf.png"
+    cv2.imwrite(str(path), image)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no LensletSizeWarning: n divides the image
+        result = io.read_light_field(path)
+    assert result.format == "eslf"
+    assert result.metadata["lenslet_size"] == n and result.metadata["lenslet_size_detected"]
+    evidence = result.metadata["lenslet_evidence"]
+    assert set(evidence) == ({"rows", "columns", "alpha rows", "alpha columns"} if alpha
+                             else {"rows", "columns"})
+    assert all(m == n for m, _ in evidence.values())
+    assert result.light_field.shape == (n, n, 48, 56, 4 if alpha else 3)
+    np.testing.assert_array_equal(result.light_field[2, 3], image[2::n, 3::n])
+
+
+def test_explicit_lenslet_size_is_honoured(tmp_path):
+    path = tmp_path / "capture.eslf.png"
+    cv2.imwrite(str(path), lenslet_image(15))
+    result = io.read_eslf(path, n=14)  # wrong, but given: read as asked
+    assert result.light_field.shape[:2] == (14, 14)
+    assert result.metadata["lenslet_size_detected"] is False and result.metadata["lenslet_evidence"] == {}
+
+
+def test_lenslet_size_of_a_cotton_eslf():
+    if not COTTON.is_dir():
+        pytest.skip(f"HCI 'cotton' light field not found at {COTTON}")
+    lf = io.read_hci(COTTON).light_field
+    image = lf.transpose(2, 0, 3, 1, 4).reshape(512 * 9, 512 * 9, 3)
+    n, evidence = io.detect_lenslet_size(image)
+    assert n == 9 and all(score > 0.5 for _, score in evidence.values())
+
+
+@pytest.mark.parametrize("image", [
+    np.random.default_rng(0).integers(0, 256, (600, 700, 3), dtype=np.uint8),  # noise
+    cv2.GaussianBlur(np.random.default_rng(1).random((600, 700)).astype(np.float32), (0, 0), 3),
+])
+def test_images_that_are_not_lenslet_images_are_refused(tmp_path, image):
+    path = tmp_path / "photo.tif"
+    cv2.imwrite(str(path), image)
+    raises_naming(path, r"cannot tell the lenslet size from the image \(700x600; best period and "
+                  r"share of variance explained per profile: rows: .*\); expected an ESLF image "
+                  r"whose lenslets show in its pixels or alpha, or the size given", io.read_eslf, path)
+
+
+def test_detected_size_that_does_not_divide_the_image_warns(tmp_path):
+    image = lenslet_image(15, size=(57, 57))[:854, :854]  # 854 = 61 * 14, not a multiple of 15
+    path = tmp_path / "cropped.eslf.png"
+    cv2.imwrite(str(path), image)
+    with pytest.warns(io.LensletSizeWarning, match=r"lenslet size 15 detected .* the image "
+                      r"\(854x854\) is a whole number of 14-pixel lenslets"):
+        result = io.read_eslf(path)
+    assert result.metadata["lenslet_size"] == 15 and result.metadata["cropped"] == (14, 14)
+
+
+def test_eslf_names():
+    for name in ("IMG_5776.eslf.png", "IMG_5776_eslf.png", "a/b_ESLF.PNG", "x.eslf.jpg"):
+        assert io.guess_format(name) == "eslf", name
+    assert io.guess_format("eslf.png") is None and io.guess_format("selfie.png") is None

@@ -9,10 +9,13 @@ disparity) is in ``class_id`` and read with :func:`keypoint_slopes`.
 
 from ._core import SLOPE_SCALE, getNumThreads, opencvVersion, setNumThreads
 from ._detector import LiFF, LiFF_create, keypoint_slopes
+from ._warnings import LensletSizeWarning, LiffWarning
 
 __all__ = [
+    "LensletSizeWarning",
     "LiFF",
     "LiFF_create",
+    "LiffWarning",
     "SLOPE_SCALE",
     "keypoint_slopes",
     "setNumThreads",

@@ -4,8 +4,9 @@ the alpha / weight convention: docs/INPUTS.md. Axis order and slope sign:
 docs/CONVENTIONS.md.
 """
 
+from .._warnings import LensletSizeWarning
 from ._shared import LightFieldFile, centre_views
-from .eslf import read_eslf, write_eslf
+from .eslf import detect_lenslet_size, read_eslf, write_eslf
 from .hci import HciScene, read_hci
 from .mosaic import read_mosaic, write_mosaic
 from .numpy_files import read_numpy
@@ -16,8 +17,10 @@ from .views import read_views, write_views
 __all__ = [
     "FORMATS",
     "HciScene",
+    "LensletSizeWarning",
     "LightFieldFile",
     "centre_views",
+    "detect_lenslet_size",
     "guess_format",
     "read_eslf",
     "read_hci",

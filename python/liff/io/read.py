@@ -29,7 +29,8 @@ FORMATS: Dict[str, tuple] = {
     "views": (read_views, "any other folder of views named like scene_RR_CC.png"),
     "npy": (read_numpy, "a .npy file"),
     "npz": (read_numpy, "a .npz file (option key=...)"),
-    "eslf": (read_eslf, "a *.eslf.png image, or format='eslf' (options n=14, keep=...)"),
+    "eslf": (read_eslf, "a *.eslf.png or *_eslf.png image, or format='eslf' (options n (default: "
+                        "detected), keep=...)"),
     "mosaic": (read_mosaic, "format='mosaic' with grid=(T, S) (one image of T x S tiles)"),
 }
 
@@ -48,7 +49,7 @@ def guess_format(path: PathLike) -> Optional[str]:
         return "npy"
     if name.endswith(".npz"):
         return "npz"
-    if ".eslf." in name:
+    if ".eslf." in name or os.path.splitext(name)[0].endswith("_eslf"):
         return "eslf"
     return None
 
@@ -60,14 +61,14 @@ def read_light_field(path: PathLike, format: Optional[str] = None, **options) ->
     ----------
     path : path
         A folder (HCI scene or views named by row and column), a ``.npy`` / ``.npz``
-        file, an ESLF image (``*.eslf.png``) or, with ``format="mosaic"``, a mosaic.
+        file, an ESLF image (``*.eslf.png``, ``*_eslf.png``) or, with
+        ``format="mosaic"``, a mosaic.
     format : str, optional
-        One of "hci", "views", "npy", "npz", "eslf", "mosaic"; guessed from ``path``
-        when omitted (a mosaic or an ESLF image without ``.eslf.`` in its name must be
-        named).
+        One of "hci", "views", "npy", "npz", "eslf", "mosaic"; guessed
+        from ``path`` when omitted (a mosaic, or an ESLF image without ``.eslf.`` or
+        ``_eslf.`` in its name, must be named).
     **options
-        Passed to the format's reader: ``grid``, ``pattern`` (views); ``key`` (npz);
-        ``n``, ``keep`` (eslf); ``grid`` (mosaic, required).
+        Passed to the format's reader: ``grid``, ``pattern`` (views); ``key`` (npz); ``n``, ``keep`` (eslf); ``grid`` (mosaic, required).
 
     Returns
     -------

@@ -1,14 +1,16 @@
 """Reading the captures people have (issue 12, section 2): view names with a scene id,
-view blocks that do not start at 0 or 1, incomplete view sets, and ESLF lenslet sizes
-other than 14."""
+view blocks that do not start at 0 or 1, incomplete view sets, ESLF lenslet sizes other
+than 14, and MATLAB and HDF5 light fields."""
 
 from __future__ import annotations
 
+import re
 import sys
 import warnings
 from pathlib import Path
 
 import cv2
+import h5py
 import numpy as np
 import pytest
 
@@ -17,6 +19,7 @@ from liff import io, synthetic
 from liff.cli import main
 from liff.feature_file import load_features
 
+from lfhelpers import matlab_order, write_mat_v5, write_mat_v73
 from test_io_readers import COTTON, coded_lf, raises_naming
 
 
@@ -286,3 +289,128 @@ def test_eslf_names():
     for name in ("IMG_5776.eslf.png", "IMG_5776_eslf.png", "a/b_ESLF.PNG", "x.eslf.jpg"):
         assert io.guess_format(name) == "eslf", name
     assert io.guess_format("eslf.png") is None and io.guess_format("selfie.png") is None
+
+
+# ---------------------------------------------------------------- MATLAB .mat
+
+@pytest.mark.parametrize("writer", [write_mat_v5, write_mat_v73], ids=["v5", "v7.3"])
+@pytest.mark.parametrize("dtype, channels", [(np.uint16, 4), (np.uint8, 3), (np.float32, 2),
+                                             (np.float64, 1)])
+def test_light_field_toolbox_mat_files(tmp_path, writer, dtype, channels):
+    """LF(t, s, v, u, c), RGB(+weight) in MATLAB: read as (T, S, V, U, C) BGR(+weight)."""
+    lf = coded_lf((3, 4, 5, 6, channels), np.uint16).astype(dtype)
+    path = tmp_path / "IMG_0001__Decoded.mat"
+    writer(path, {"LF": matlab_order(lf), "LensletGridModel": {"HSpacing": np.array(14.3)},
+                  "GeneratedByInfo": {"mfilename": "LFUtilDecodeLytroFolder"}})
+    result = io.read_light_field(path)
+    assert result.format == "mat" and result.metadata["key"] == "LF"
+    assert result.metadata["version"] == ("v5" if writer is write_mat_v5 else "v7.3")
+    assert result.light_field.dtype == dtype and result.light_field.flags.c_contiguous
+    np.testing.assert_array_equal(result.light_field, lf if channels > 1 else lf[..., 0])
+    # the axis order, seen in MATLAB's terms: LF(t, s, v, u, c) is liff's [t, s, v, u, c]
+    if channels == 4:
+        assert result.light_field[2, 3, 4, 5, 0] == matlab_order(lf)[2, 3, 4, 5, 2]  # B is MATLAB's c=3
+
+
+@pytest.mark.parametrize("writer", [write_mat_v5, write_mat_v73], ids=["v5", "v7.3"])
+def test_hci_benchmark_struct(tmp_path, writer):
+    """convertBlenderTo5D.m: a struct LF with fields LF (double RGB in [0, 1]) and
+    disp_lowres, beside parameters (a struct of text and numbers)."""
+    lf = coded_lf((3, 3, 5, 6, 3))
+    disparity = np.random.default_rng(0).normal(size=(5, 6))
+    struct_fields = {"LF": matlab_order(lf) / 255.0, "disp_lowres": disparity, "f": np.array(5000.0)}
+    if writer is write_mat_v5:
+        struct_fields["parameters"] = {"meta": {"disp_min": np.array(-1.5), "note": "text"}}
+    writer(tmp_path / "LF.mat", {"LF": struct_fields})
+    result = io.read_mat(tmp_path / "LF.mat")
+    assert result.metadata["key"] == "LF.LF"
+    np.testing.assert_allclose(result.light_field * 255, lf)
+    np.testing.assert_allclose(result.gt_disparity, disparity.astype(np.float32))
+
+
+def test_mat_variable_choice_and_errors(tmp_path):
+    lf = coded_lf((2, 2, 3, 4))
+    write_mat_v5(tmp_path / "two.mat", {"a": lf, "b": lf[::-1]})
+    raises_naming(tmp_path / "two.mat", r"variables \['a', 'b'\]; expected one named 'LF', a single "
+                  r"variable, or key=", io.read_mat, tmp_path / "two.mat")
+    np.testing.assert_array_equal(io.read_mat(tmp_path / "two.mat", key="b").light_field, lf[::-1])
+    raises_naming(tmp_path / "two.mat", r"no variable 'c'; expected one of \['a', 'b'\]",
+                  io.read_mat, tmp_path / "two.mat", key="c")
+    write_mat_v73(tmp_path / "logical.mat", {"LF": lf > 100})
+    raises_naming(tmp_path / "logical.mat", r"\['LF'\]: MATLAB class logical; expected one of uint8, "
+                  r"uint16, single, double", io.read_mat, tmp_path / "logical.mat")
+    write_mat_v5(tmp_path / "int16.mat", {"LF": lf.astype(np.int16)})
+    raises_naming(tmp_path / "int16.mat", r"dtype int16; expected uint8, uint16, float32 or float64",
+                  io.read_mat, tmp_path / "int16.mat")
+    write_mat_v73(tmp_path / "struct.mat", {"LF": {"data": lf}})
+    raises_naming(tmp_path / "struct.mat", r"struct with fields \['data'\]; expected a light field, "
+                  r"or a struct with a field 'LF'", io.read_mat, tmp_path / "struct.mat")
+    (tmp_path / "junk.mat").write_bytes(b"junk" * 40)
+    raises_naming(tmp_path / "junk.mat", r"expected a MATLAB \.mat file", io.read_mat,
+                  tmp_path / "junk.mat")
+    raises_naming(tmp_path / "absent.mat", r"no such file", io.read_mat, tmp_path / "absent.mat")
+
+
+@pytest.mark.parametrize("bug", sorted(p.name for p in (Path(__file__).resolve().parents[1] / "fuzz"
+                                                          / "corpus" / "mat").glob("bug-loadmat-*")))
+def test_damaged_mat_files_scipy_would_crash_on_are_refused(bug):
+    """scipy 1.17's loadmat crashes the interpreter on data type codes without a dtype;
+    liff's guard (liff/io/_matv5.py) refuses them first."""
+    path = Path(__file__).resolve().parents[1] / "fuzz" / "corpus" / "mat" / bug
+    raises_naming(path, r"\['LF'\]: not read \(numeric data has data type \d+; expected one of "
+                  r"\[1, 2, 3, 4, 5, 6, 7, 9, 12, 13\]\)", io.read_mat, path)
+
+
+@pytest.mark.parametrize("module, extra, call", [
+    ("scipy.io", "mat", lambda p: io.read_mat(p)),
+    ("h5py", "hdf5", lambda p: io.read_hdf5(p)),
+])
+def test_missing_optional_dependency_names_the_extra(tmp_path, monkeypatch, module, extra, call):
+    (tmp_path / "x.bin").write_bytes(b"data")
+    monkeypatch.setitem(sys.modules, module, None)
+    with pytest.raises(ImportError, match=re.escape(f"pip install 'liff[{extra}]'")):
+        call(tmp_path / "x.bin")
+
+
+# ---------------------------------------------------------------- HDF5
+
+def write_hci_2013(path: Path, lf_rgb: np.ndarray) -> None:
+    """The 2013 HCI benchmark's lf.h5 layout: dataset LF (T, S, V, U, 3) uint8 RGB,
+    GT_DEPTH (T, S, V, U), camera attributes on the root."""
+    with h5py.File(path, "w") as f:
+        f["LF"] = lf_rgb
+        f["GT_DEPTH"] = np.ones(lf_rgb.shape[:4], np.float32)
+        f.attrs.update({"dH": np.array([0.05]), "focalLength": np.array([9.375]),
+                        "shift": np.array([0.5]), "vRes": np.array([lf_rgb.shape[0]])})
+
+
+def test_hci_2013_hdf5(tmp_path):
+    lf = coded_lf((3, 4, 5, 6, 3))
+    write_hci_2013(tmp_path / "lf.h5", matlab_order(lf))  # RGB on disk
+    result = io.read_light_field(tmp_path / "lf.h5")
+    assert result.format == "hdf5" and result.metadata["key"] == "LF"
+    np.testing.assert_array_equal(result.light_field, lf)
+    assert result.metadata["datasets"] == ["GT_DEPTH", "LF"]
+    assert result.metadata["attributes"] == {"dH": 0.05, "focalLength": 9.375, "shift": 0.5, "vRes": 3}
+
+
+def test_hdf5_dataset_choice_and_errors(tmp_path):
+    lf = coded_lf((2, 2, 3, 4))
+    with h5py.File(tmp_path / "g.hdf5", "w") as f:
+        f["data/lf"] = lf
+        f["data/notes"] = np.zeros(3)
+    np.testing.assert_array_equal(io.read_light_field(tmp_path / "g.hdf5").light_field, lf)
+    np.testing.assert_array_equal(io.read_hdf5(tmp_path / "g.hdf5", key="/data/lf").light_field, lf)
+    raises_naming(tmp_path / "g.hdf5", r"\['data/notes'\]: array has shape \(3,\); expected a light "
+                  r"field", io.read_hdf5, tmp_path / "g.hdf5", key="data/notes")
+    with h5py.File(tmp_path / "two.h5", "w") as f:
+        f["a"], f["b"] = lf, lf
+    raises_naming(tmp_path / "two.h5", r"datasets \['a', 'b'\]; expected one named 'LF', a single "
+                  r"dataset, or key=", io.read_hdf5, tmp_path / "two.h5")
+    write_mat_v73(tmp_path / "m.h5", {"LF": lf})
+    raises_naming(tmp_path / "m.h5", r"a MATLAB v7\.3 file .* read it with format='mat'",
+                  io.read_hdf5, tmp_path / "m.h5")
+    np.testing.assert_array_equal(io.read_light_field(tmp_path / "m.h5", format="mat").light_field, lf)
+    (tmp_path / "junk.h5").write_bytes(b"junk")
+    raises_naming(tmp_path / "junk.h5", r"unreadable .*expected an HDF5 file", io.read_hdf5,
+                  tmp_path / "junk.h5")

@@ -8,6 +8,8 @@ from .._warnings import LensletSizeWarning
 from ._shared import LightFieldFile, centre_views
 from .eslf import detect_lenslet_size, read_eslf, write_eslf
 from .hci import HciScene, read_hci
+from .hdf5 import read_hdf5
+from .mat import read_mat
 from .mosaic import read_mosaic, write_mosaic
 from .numpy_files import read_numpy
 from .pfm import read_pfm, write_pfm
@@ -24,7 +26,9 @@ __all__ = [
     "guess_format",
     "read_eslf",
     "read_hci",
+    "read_hdf5",
     "read_light_field",
+    "read_mat",
     "read_mosaic",
     "read_numpy",
     "read_pfm",

@@ -1,6 +1,6 @@
 """Reading the captures people have (issue 12, section 2): view names with a scene id,
 view blocks that do not start at 0 or 1, incomplete view sets, ESLF lenslet sizes other
-than 14, and MATLAB and HDF5 light fields."""
+than 14, MATLAB and HDF5 light fields, and intensity scale."""
 
 from __future__ import annotations
 
@@ -414,3 +414,109 @@ def test_hdf5_dataset_choice_and_errors(tmp_path):
     (tmp_path / "junk.h5").write_bytes(b"junk")
     raises_naming(tmp_path / "junk.h5", r"unreadable .*expected an HDF5 file", io.read_hdf5,
                   tmp_path / "junk.h5")
+
+
+# ---------------------------------------------------------------- intensity scale
+
+def twelve_bit(lf: np.ndarray) -> np.ndarray:
+    return np.round(lf * 4095).astype(np.uint16)
+
+
+@pytest.mark.parametrize("array, expected", [
+    (np.full((2, 2, 8, 8), 1023, np.uint16), r"uint16 with values in \[1023, 1023\] .*10-bit "
+                                             r"data\? .*bit_depth=10 \(--bit-depth 10\)"),
+    (np.arange(4096, dtype=np.uint16).reshape(1, 1, 64, 64), r"values in \[0, 4095\] .*12-bit data\? "
+                                                             r".*1/16 of the contrast.*bit_depth=12"),
+    (np.linspace(0, 255, 2 * 2 * 8 * 8).reshape(2, 2, 8, 8), r"float64 with values in \[0, 255\] "
+                                                             r".*bit_depth=8 .*lf / 255"),
+    (np.linspace(-1, 1, 64).reshape(1, 1, 8, 8).astype(np.float32), r"float32 with values in "
+                                                                     r"\[-1, 1\] .*scale it to \[0, 1\]"),
+    (np.full((1, 1, 8, 8), 0.02, np.float32), r"uses 1/50 of the \[0, 1\] range"),
+])
+def test_intensity_off_scale_warns_with_the_range_and_the_fix(array, expected):
+    before = array.copy()
+    with pytest.warns(liff.IntensityWarning, match=expected) as record:
+        message = io.check_intensity(array, source="x.npy")
+    assert message.startswith("x.npy: ") and str(record[0].message) == message
+    assert record[0].filename == __file__  # stacklevel=2: the caller
+    np.testing.assert_array_equal(array, before)
+
+
+@pytest.mark.parametrize("array", [
+    np.full((2, 2, 8, 8), 65535, np.uint16), np.full((2, 2, 8, 8), 16384, np.uint16),
+    np.full((2, 2, 8, 8), 3, np.uint8), np.linspace(0, 1, 256).reshape(1, 1, 16, 16),
+    np.zeros((2, 2, 4, 4), np.uint16), np.zeros((2, 2, 4, 4), np.int32),
+])
+def test_intensity_on_scale_is_quiet(array):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert io.check_intensity(array) is None
+
+
+def test_intensity_check_skips_the_weight_channel_and_samples_views():
+    lf = np.zeros((9, 9, 8, 8, 4), np.uint16)
+    lf[..., :3] = 4000
+    lf[..., 3] = 65535  # a full weight does not make the data full-range
+    with pytest.warns(liff.IntensityWarning, match=r"\[4000, 4000\]"):
+        io.check_intensity(lf)
+    lf[4, 4, 0, 0, :3] = 65535  # a highlight in the centre view is seen
+    assert io.intensity_range(lf) == (4000, 65535)
+
+
+def test_scale_bit_depth():
+    lf = np.array([0, 1, 1022, 1023], np.uint16).reshape(1, 1, 2, 2)
+    before = lf.copy()
+    out = io.scale_bit_depth(lf, 10)
+    assert out.dtype == np.uint16 and out.ravel().tolist() == [0, 64, 65471, 65535]
+    np.testing.assert_array_equal(lf, before)
+    weighted = np.stack([lf, np.full_like(lf, 7)], -1)
+    np.testing.assert_array_equal(io.scale_bit_depth(weighted, 10)[..., 1], 7)  # weight as it was
+    floats = np.array([0.0, 127.5, 255.0], np.float32).reshape(1, 1, 1, 3)
+    np.testing.assert_allclose(io.scale_bit_depth(floats, 8), [[[[0, 0.5, 1]]]])
+    assert io.scale_bit_depth(lf.astype(np.uint8), 8) is not None
+    with pytest.raises(ValueError, match=r"^lf\.npy: values up to 1023 exceed 511, the largest 9-bit "
+                                         r"value; expected bit_depth >= 10$"):
+        io.scale_bit_depth(lf, 9, "lf.npy")
+    with pytest.raises(ValueError, match=r"bit_depth = 12 for a uint8 light field; expected at most 8"):
+        io.scale_bit_depth(lf.astype(np.uint8), 12)
+    for bad in (0, 17, 2.5, "10"):
+        with pytest.raises(ValueError, match=r"bit_depth = .*; expected a whole number of bits from "
+                                             r"1 to 16"):
+            io.scale_bit_depth(lf, bad)
+
+
+def test_twelve_bit_data_finds_nothing_until_rescaled(tmp_path, blob_lf):
+    """The field report: 12-bit sensor values in uint16 give (almost) no features; read
+    with bit_depth=12 they give what the same data in 16 bits gives."""
+    np.save(tmp_path / "raw.npy", twelve_bit(blob_lf))
+    detector = liff.LiFF.create()
+    reference = len(detector.detect(np.round(blob_lf * 65535).astype(np.uint16)))
+    raw = io.read_light_field(tmp_path / "raw.npy").light_field
+    assert len(detector.detect(raw)) <= 0.1 * reference
+    with pytest.warns(liff.IntensityWarning, match="bit_depth=12"):
+        io.check_intensity(raw)
+    scaled = io.read_light_field(tmp_path / "raw.npy", bit_depth=12)
+    assert scaled.metadata["bit_depth"] == 12
+    assert abs(len(detector.detect(scaled.light_field)) - reference) <= 0.1 * reference
+
+
+def test_floats_in_0_255_find_noise_until_rescaled(tmp_path, blob_lf):
+    np.save(tmp_path / "f.npy", (blob_lf * 255).astype(np.float32))
+    detector = liff.LiFF.create()
+    reference = len(detector.detect(blob_lf.astype(np.float32)))
+    raw = io.read_light_field(tmp_path / "f.npy").light_field
+    assert len(detector.detect(raw)) >= 1.2 * reference
+    scaled = io.read_light_field(tmp_path / "f.npy", bit_depth=8).light_field
+    assert abs(len(detector.detect(scaled)) - reference) <= 0.1 * reference
+
+
+def test_cli_bit_depth(tmp_path, blob_lf, capsys):
+    np.save(tmp_path / "raw.npy", twelve_bit(blob_lf))
+    assert main(["detect", str(tmp_path / "raw.npy"), "--out", str(tmp_path / "a.npz")]) == 0
+    assert main(["detect", str(tmp_path / "raw.npy"), "--out", str(tmp_path / "b.npz"),
+                 "--bit-depth", "12"]) == 0
+    assert len(load_features(tmp_path / "b.npz").keypoints) > 5 * len(load_features(tmp_path / "a.npz").keypoints)
+    assert main(["detect", str(tmp_path / "raw.npy"), "--out", str(tmp_path / "c.npz"),
+                 "--bit-depth", "10"]) == 1
+    assert re.search(r"raw\.npy: values up to 40\d\d exceed 1023, the largest 10-bit value; "
+                     r"expected bit_depth >= 12", capsys.readouterr().err)

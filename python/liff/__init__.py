@@ -9,9 +9,10 @@ disparity) is in ``class_id`` and read with :func:`keypoint_slopes`.
 
 from ._core import SLOPE_SCALE, getNumThreads, opencvVersion, setNumThreads
 from ._detector import LiFF, LiFF_create, keypoint_slopes
-from ._warnings import LensletSizeWarning, LiffWarning
+from ._warnings import IntensityWarning, LensletSizeWarning, LiffWarning
 
 __all__ = [
+    "IntensityWarning",
     "LensletSizeWarning",
     "LiFF",
     "LiFF_create",

@@ -11,6 +11,7 @@ from .eslf import read_eslf
 from .hci import _VIEW as _HCI_VIEW
 from .hci import read_hci
 from .hdf5 import read_hdf5
+from .intensity import scale_bit_depth
 from .mat import read_mat
 from .mosaic import read_mosaic
 from .numpy_files import read_numpy
@@ -60,7 +61,8 @@ def guess_format(path: PathLike) -> Optional[str]:
     return None
 
 
-def read_light_field(path: PathLike, format: Optional[str] = None, **options) -> LightFieldFile:
+def read_light_field(path: PathLike, format: Optional[str] = None, bit_depth=None,
+                     **options) -> LightFieldFile:
     """Reads a light field in any format liff knows (docs/INPUTS.md).
 
     Parameters
@@ -73,6 +75,11 @@ def read_light_field(path: PathLike, format: Optional[str] = None, **options) ->
         One of "hci", "views", "npy", "npz", "mat", "hdf5", "eslf", "mosaic"; guessed
         from ``path`` when omitted (a mosaic, or an ESLF image without ``.eslf.`` or
         ``_eslf.`` in its name, must be named).
+    bit_depth : int, optional
+        The light field holds ``bit_depth``-bit values (e.g. 10 or 12 for sensor data
+        stored in uint16, 8 for floats in 0..255): rescale them to the nominal range
+        of the dtype (:func:`liff.io.scale_bit_depth`); ``metadata["bit_depth"]`` records
+        it. Any format.
     **options
         Passed to the format's reader: ``grid``, ``pattern`` (views); ``key`` (npz, mat,
         hdf5); ``n``, ``keep`` (eslf); ``grid`` (mosaic, required).
@@ -85,8 +92,8 @@ def read_light_field(path: PathLike, format: Optional[str] = None, **options) ->
     ------
     ValueError
         If ``path`` does not exist, the format cannot be told or is unknown (the message
-        lists the accepted formats), an option does not apply to the format, or the
-        reader rejects the data.
+        lists the accepted formats), an option does not apply to the format, the reader
+        rejects the data, or values exceed ``bit_depth``.
     ImportError
         For .mat and HDF5 files when SciPy / h5py are missing (naming the pip extra).
     """
@@ -107,5 +114,9 @@ def read_light_field(path: PathLike, format: Optional[str] = None, **options) ->
     unknown = sorted(set(options) - set(accepted))
     if unknown:
         raise ValueError(f"{path}: option(s) {', '.join(unknown)} do not apply to format "
-                         f"{format!r}; expected {', '.join(accepted) or 'no options'}")
-    return reader(path, **options)
+                         f"{format!r}; expected {', '.join(accepted + ['bit_depth'])}")
+    result = reader(path, **options)
+    if bit_depth is not None:
+        result.light_field = scale_bit_depth(result.light_field, bit_depth, path)
+        result.metadata["bit_depth"] = int(bit_depth)
+    return result

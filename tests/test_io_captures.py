@@ -1,6 +1,6 @@
 """Reading the captures people have (issue 12, section 2): view names with a scene id,
 view blocks that do not start at 0 or 1, incomplete view sets, ESLF lenslet sizes other
-than 14, MATLAB and HDF5 light fields, and intensity scale."""
+than 14, MATLAB and HDF5 light fields, intensity scale, and detection masks."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ import liff
 from liff import io, synthetic
 from liff.cli import main
 from liff.feature_file import load_features
+from liff.preprocess import border_mask
 
 from lfhelpers import matlab_order, write_mat_v5, write_mat_v73
 from test_io_readers import COTTON, coded_lf, raises_naming
@@ -520,3 +521,56 @@ def test_cli_bit_depth(tmp_path, blob_lf, capsys):
                  "--bit-depth", "10"]) == 1
     assert re.search(r"raw\.npy: values up to 40\d\d exceed 1023, the largest 10-bit value; "
                      r"expected bit_depth >= 12", capsys.readouterr().err)
+
+
+# ---------------------------------------------------------------- masks
+
+def test_border_mask_drops_the_black_border_only():
+    lf = synthetic.textured_layers((5, 5, 80, 100), noise_variance=0).light_field
+    capture = synthetic.lenslet_capture(lf, border=0.05)
+    before = capture.copy()
+    mask = border_mask(capture, margin=4)
+    np.testing.assert_array_equal(capture, before)
+    assert mask.shape == (80, 100) and mask.dtype == np.uint8 and set(np.unique(mask)) == {0, 255}
+    assert not mask[0].any() and not mask[:, -1].any() and mask[40, 50] == 255
+    assert (border_mask(synthetic.lenslet_capture(lf, border=0)) == 255).all()
+    # a dark region inside the scene is kept; one touching the border is dropped
+    dark = capture.copy()
+    dark[:, :, 30:40, 40:50, :3] = 0
+    dark[:, :, 30:40, 0:20, :3] = 0
+    mask = border_mask(dark, margin=0)
+    assert (mask[30:40, 40:50] == 255).all() and not mask[35, 10]
+    # pixels no view sees (alpha 0 everywhere) are dropped
+    unseen = capture.copy()
+    unseen[:, :, :, 60:, 3] = 0
+    assert not border_mask(unseen, margin=0)[40, 80]
+
+
+def test_cli_mask_file_and_auto(tmp_path, blob_lf, capsys):
+    np.save(tmp_path / "lf.npy", blob_lf)
+    keep = np.zeros((96, 96), np.uint8)
+    keep[:, :48] = 200
+    cv2.imwrite(str(tmp_path / "mask.png"), keep)
+    assert main(["detect", str(tmp_path / "lf.npy"), "--out", str(tmp_path / "m.npz"),
+                 "--mask", str(tmp_path / "mask.png")]) == 0
+    masked = load_features(tmp_path / "m.npz")
+    expected = liff.LiFF.create().detect(blob_lf, keep)
+    assert len(masked.keypoints) == len(expected) > 3
+    assert all(round(k.pt[0]) < 48 for k in masked.keypoints)
+    assert masked.meta["mask"] == str(tmp_path / "mask.png")
+
+    cv2.imwrite(str(tmp_path / "small.png"), keep[:50])
+    assert main(["detect", str(tmp_path / "lf.npy"), "--out", str(tmp_path / "s.npz"),
+                 "--mask", str(tmp_path / "small.png")]) == 1
+    assert re.search(r"small\.png: mask is 96x50 \(width x height\); expected the views' size "
+                     r"96x96 of .*lf\.npy", capsys.readouterr().err)
+
+    capture = synthetic.lenslet_capture(synthetic.textured_layers((5, 5, 96, 128)).light_field,
+                                        border=0.02)
+    np.save(tmp_path / "capture.npy", capture)
+    assert main(["detect", str(tmp_path / "capture.npy"), "--out", str(tmp_path / "a.npz"),
+                 "--mask", "auto"]) == 0
+    auto = border_mask(capture)
+    kept = load_features(tmp_path / "a.npz").keypoints
+    assert len(kept) == len(liff.LiFF.create().detect(capture, auto))
+    assert all(auto[round(k.pt[1]), round(k.pt[0])] for k in kept)

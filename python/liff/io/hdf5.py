@@ -83,9 +83,9 @@ def read_hdf5(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
                 raise ValueError(f"{path}[{key!r}]: dataset of shape {node.shape} does not fit "
                                  f"in memory") from None
             attributes = {**_attributes(f.attrs), **_attributes(node.attrs)}
-    except ValueError:
-        raise
-    except Exception as e:  # h5py raises OSError, KeyError, TypeError, ... on damaged files
+    except Exception as e:  # h5py raises OSError, KeyError, ValueError, ... on damaged files
+        if isinstance(e, ValueError) and str(e).startswith(path):  # liff's own, naming the file
+            raise
         raise ValueError(f"{path}: unreadable ({type(e).__name__}: {e}); expected an HDF5 file "
                          f"holding a light field") from None
     light_field = rgb_light_field(np.asarray(array), f"{path}[{key!r}]")

@@ -163,9 +163,9 @@ def _read_v73(path: str, key: Optional[str]):
                                                    node[DISPARITY_FIELD], h5py)
                 node, key = node[LF_VARIABLE], f"{key}.{LF_VARIABLE}"
             array = _read_matlab_array(path, key, node, h5py)
-    except ValueError:
-        raise
-    except Exception as e:  # h5py raises OSError, KeyError, TypeError, ... on damaged files
+    except Exception as e:  # h5py raises OSError, KeyError, ValueError, ... on damaged files
+        if isinstance(e, ValueError) and str(e).startswith(path):  # liff's own, naming the file
+            raise
         raise _unreadable(path, "HDF5 (v7.3) content", e) from None
     return array, disparity, key, names
 

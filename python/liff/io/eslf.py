@@ -27,10 +27,10 @@ LYTRO_LENSLET_SIZE = 14
 LENSLET_SIZES = range(2, 33)
 #: lenslets a signal must span on an axis for its period to count
 MIN_LENSLETS = 8
-# Thresholds (periodicity() scores): lenslet images made by write_eslf from cotton and from
-# synthetic.lenslet_capture scenes, n = 9, 14, 15, score 0.47-1.0 on every profile;
-# images that are not lenslet-interleaved (cotton's centre view, its mosaic, noise from
-# 40x45 to 1000x900 pixels) score at most 0.11.
+# Thresholds (periodicity() scores, benchmarks/lenslet_size.py): lenslet images (cotton
+# as ESLF, n = 9; synthetic captures and plain layers, n = 9 to 16) score 0.53-1.0 on
+# every profile; images that are not lenslet-interleaved (cotton's centre view and
+# mosaic, noise from 40x45 to 900x1000 pixels) at most 0.12.
 #: share of a signal's variance a period must explain to be taken on its own ...
 STRONG_PERIODICITY = 0.3
 #: ... or, when the size also divides the image's height and width, at least this share

@@ -7,12 +7,15 @@ run found worth keeping)."""
 import io
 import os
 import sys
+import zlib
 
 import cv2
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests"))
 import readers  # noqa: E402
+from lfhelpers import matlab_order, write_mat_v5, write_mat_v73  # noqa: E402
 
 CORPUS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "corpus")
 
@@ -131,6 +134,78 @@ SEEDS.update({
 })
 
 
+def via_file(write, suffix, *args) -> bytes:
+    """The bytes a writer that wants a path (h5py, scipy) makes."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "file" + suffix)
+        write(path, *args)
+        with open(path, "rb") as f:
+            return f.read()
+
+
+def write_h5(path, datasets, attributes=None):
+    import h5py
+
+    with h5py.File(path, "w") as f:
+        for name, data in datasets.items():
+            f[name] = data
+        f.attrs.update(attributes or {})
+
+
+def lenslet_png(n=5, size=(8, 9), alpha=True):
+    from liff import synthetic
+
+    lf = synthetic.textured_layers((n, n) + size, noise_variance=0).light_field
+    capture = synthetic.lenslet_capture(lf, border=0)
+    image = capture.transpose(2, 0, 3, 1, 4).reshape(size[0] * n, size[1] * n, 4)
+    return png(image if alpha else image[..., :3])
+
+
+LF_U16 = (np.arange(2 * 3 * 4 * 5 * 4).reshape(2, 3, 4, 5, 4) * 2477 % 65535).astype(np.uint16)
+SEEDS.update({
+    "views": {
+        **SEEDS["views"],
+        "scene-id-prefix": readers.pack_folder({f"0421_{t:02d}_{s:02d}.png": view(2 * t + s)
+                                                for t in range(2) for s in range(2)}),
+        "block-8-10": readers.pack_folder({f"cam_{t}_{s}.png": view(t + s)
+                                           for t in (8, 9, 10) for s in (8, 9)}),
+        "cross-3x3": readers.pack_folder({f"v_{t}_{s}.png": view(t + s)
+                                          for t, s in ((0, 1), (1, 0), (1, 1), (1, 2), (2, 1))}),
+        "not-symmetric": readers.pack_folder({f"v_{t}_{s}.png": view(t + s)
+                                              for t, s in ((0, 1), (1, 0), (1, 1), (1, 2), (2, 1), (0, 0))}),
+        "two-scenes": readers.pack_folder({f"{scene}_0_{s}.png": view(s)
+                                           for scene in (421, 422) for s in range(2)}),
+    },
+    "eslf-detect": {
+        "lenslet-5-alpha": lenslet_png(5),
+        "lenslet-4-no-alpha": lenslet_png(4, alpha=False),
+        "noise": png(np.random.default_rng(0).integers(0, 256, (40, 45), dtype=np.uint8)),
+        "corrupt": png(np.zeros((4, 4), np.uint8))[:25],
+    },
+    "mat": {
+        "v5-uint16-rgbw": via_file(write_mat_v5, ".mat", {"LF": matlab_order(LF_U16)}),
+        "v73-uint16-rgbw": via_file(write_mat_v73, ".mat", {"LF": matlab_order(LF_U16)}),
+        "v5-hci-struct": via_file(write_mat_v5, ".mat", {"LF": {"LF": LF[..., None].astype(np.float64),
+                                                               "disp_lowres": np.zeros((3, 4))}}),
+        "v73-hci-struct": via_file(write_mat_v73, ".mat", {"LF": {"LF": LF.astype(np.float64),
+                                                                 "disp_lowres": np.zeros((3, 4))}}),
+        "v5-two-candidates": via_file(write_mat_v5, ".mat", {"a": LF, "b": LF}),
+        "garbage": b"MATLAB 5.0 MAT-file" + bytes(200),
+    },
+    "hdf5": {
+        "hci-2013": via_file(write_h5, ".h5", {"LF": (LF[..., None].repeat(3, -1) * 255).astype(np.uint8),
+                                               "GT_DEPTH": LF},
+                             {"dH": np.array([0.1]), "focalLength": np.array([9.5]), "shift": np.array([1.0])}),
+        "grouped": via_file(write_h5, ".h5", {"data/lf": LF_U16}),
+        "two-candidates": via_file(write_h5, ".h5", {"a": LF, "b": LF}),
+        "matlab-v73": via_file(write_mat_v73, ".mat", {"LF": matlab_order(LF_U16)}),
+        "garbage": b"\x89HDF\r\n\x1a\n" + bytes(100),
+    },
+})
+
+
 # Reproducers of bugs found by fuzzing: fuzz/corpus/<reader>/bug-<id> once fixed,
 # fuzz/known_bugs/<reader>/<id> while listed in readers.KNOWN_BUGS.
 def with_cfg(cfg):
@@ -138,7 +213,31 @@ def with_cfg(cfg):
                                 **{f"input_Cam{i:03d}.png": view(i) for i in range(4)}})
 
 
+def mat_with_type(code: int, compress: bool) -> bytes:
+    """A MAT v5 file whose light field's data element claims type ``code``: scipy 1.17's
+    loadmat crashes the interpreter on codes without a dtype (0, 8, 10, 11, 14, 15, 19)."""
+    import struct
+
+    import scipy.io
+
+    buffer = io.BytesIO()
+    scipy.io.savemat(buffer, {"LF": np.arange(24, dtype=np.uint16).reshape(1, 2, 3, 4)},
+                     do_compression=False)
+    data = bytearray(buffer.getvalue())
+    tag = data.rfind(struct.pack("<II", 4, 48))  # the uint16 data: miUINT16, 48 bytes
+    data[tag:tag + 4] = struct.pack("<I", code)
+    if not compress:
+        return bytes(data)
+    body = zlib.compress(bytes(data[128:]))
+    return bytes(data[:128]) + struct.pack("<II", 15, len(body)) + body
+
+
 KNOWN_BUG_INPUTS = {
+    "mat": {  # found by fuzzing on 2026-11-30: scipy's loadmat crashed; liff checks first
+        "loadmat-type-8": mat_with_type(8, compress=False),
+        "loadmat-type-0-compressed": mat_with_type(0, compress=True),
+        "loadmat-type-99": mat_with_type(99, compress=False),
+    },
     "hci": {
         "cfg-not-utf8": with_cfg(CFG + b"comment = caf\xe9\n"),
         "cfg-percent": with_cfg(CFG + b"focus = 50%\n"),

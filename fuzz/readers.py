@@ -40,9 +40,12 @@ READERS = [
     Reader("hci", liff.io.read_hci, FOLDER),
     Reader("views", liff.io.read_views, FOLDER),
     Reader("eslf", lambda path: liff.io.read_eslf(path, n=2), file(".eslf.png")),
+    Reader("eslf-detect", liff.io.read_eslf, file("_eslf.png")),  # lenslet size detected
     Reader("mosaic", lambda path: liff.io.read_mosaic(path, grid=(2, 2)), file(".png")),
     Reader("npy", liff.io.read_numpy, file(".npy")),
     Reader("npz", liff.io.read_numpy, file(".npz")),
+    Reader("mat", liff.io.read_mat, file(".mat")),
+    Reader("hdf5", liff.io.read_hdf5, file(".h5")),
     Reader("any", liff.io.read_light_field, file(".npz")),
 ]
 BY_NAME = {r.name: r for r in READERS}

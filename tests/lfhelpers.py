@@ -126,3 +126,56 @@ def to_dtype(lf: np.ndarray, dtype) -> np.ndarray:
     if dtype.kind == "u":
         return np.round(np.clip(lf, 0, 1) * np.iinfo(dtype).max).astype(dtype)
     return lf.astype(dtype)
+
+
+# ---------------------------------------------------------------- MATLAB / HDF5 files
+
+def matlab_order(lf: np.ndarray) -> np.ndarray:
+    """liff's (T, S, V, U[, C]) BGR(+weight) as MATLAB's LF(t, s, v, u, c) RGB(+weight)."""
+    if lf.ndim == 5 and lf.shape[4] in (3, 4):
+        return lf[..., [2, 1, 0, 3][: lf.shape[4]]]
+    return lf
+
+
+def write_mat_v5(path, variables: dict) -> None:
+    """A MAT v5 file with scipy (dicts become structs), as MATLAB's ``save`` writes."""
+    import scipy.io
+
+    scipy.io.savemat(str(path), variables, do_compression=True)
+
+
+MATLAB_V73_HEADER = (b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Mon Nov 30 12:00:00 2026 "
+                     b"HDF5 schema 1.00 .").ljust(116) + b"\x00" * 8 + b"\x00\x02IM"
+
+
+def write_mat_v73(path, variables: dict) -> None:
+    """A MAT v7.3 file as MATLAB's ``save -v7.3`` lays it out: HDF5 after a 512-byte user
+    block holding the MATLAB header, arrays stored column-major (so h5py sees the axes
+    reversed) with a ``MATLAB_class`` attribute, structs as groups."""
+    import h5py
+
+    classes = {np.dtype(np.uint8): "uint8", np.dtype(np.uint16): "uint16",
+               np.dtype(np.float32): "single", np.dtype(np.float64): "double",
+               np.dtype(bool): "logical", np.dtype(np.int16): "int16"}
+
+    def put(group, name, value):
+        if isinstance(value, dict):
+            sub = group.create_group(name)
+            sub.attrs["MATLAB_class"] = np.bytes_("struct")
+            for key, item in value.items():
+                put(sub, key, item)
+            return
+        if isinstance(value, str):  # char: UTF-16 code units, a 1 x N row
+            dataset = group.create_dataset(name, data=np.array([[ord(c)] for c in value], np.uint16))
+            dataset.attrs["MATLAB_class"] = np.bytes_("char")
+            return
+        value = np.asarray(value)
+        stored = value.astype(np.uint8) if value.dtype == bool else value
+        dataset = group.create_dataset(name, data=stored.transpose(tuple(range(value.ndim))[::-1]))
+        dataset.attrs["MATLAB_class"] = np.bytes_(classes[value.dtype])
+
+    with h5py.File(str(path), "w", userblock_size=512) as f:
+        for name, value in variables.items():
+            put(f, name, value)
+    with open(path, "r+b") as f:
+        f.write(MATLAB_V73_HEADER)

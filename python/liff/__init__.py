@@ -9,11 +9,15 @@ disparity) is in ``class_id`` and read with :func:`keypoint_slopes`.
 
 from ._core import getNumThreads, opencvVersion, setNumThreads
 from ._detector import PARAMETERS, LiFF, LiFF_create
+from ._warnings import IntensityWarning, LensletSizeWarning, LiffWarning
 from .keypoint_rows import SLOPE_SCALE, keypoint_slopes
 
 __all__ = [
+    "IntensityWarning",
+    "LensletSizeWarning",
     "LiFF",
     "LiFF_create",
+    "LiffWarning",
     "PARAMETERS",
     "SLOPE_SCALE",
     "keypoint_slopes",

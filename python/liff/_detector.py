@@ -55,6 +55,10 @@ def _as_light_field(lf) -> np.ndarray:
         raise ValueError("light field dtype is bool; expected uint8, uint16, float32 or float64")
     if not lf.dtype.isnative:
         lf = lf.astype(lf.dtype.newbyteorder("="))
+    # Warn (never fail) when the values do not fill the range the dtype is read on.
+    from .io.intensity import check_intensity
+
+    check_intensity(lf, stacklevel=4)
     # (np.ascontiguousarray would turn a 0-d array into shape (1,).)
     return lf if lf.flags.c_contiguous else np.ascontiguousarray(lf)
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from .io._shared import LIGHT_FIELD_DTYPES
 
-__all__ = ["to_float", "to_luminance", "apply_gamma", "equalize", "prepare"]
+__all__ = ["to_float", "to_luminance", "apply_gamma", "equalize", "prepare", "border_mask"]
 
 #: BT.601 luminance weights for B, G, R (OpenCV's COLOR_BGR2GRAY, MATLAB's rgb2gray)
 BGR_LUMINANCE = (0.114, 0.587, 0.299)
@@ -313,3 +313,79 @@ def _equalize_method(equalize) -> Optional[str]:
     elif equalize is None or (isinstance(equalize, numbers.Number) and not equalize):
         return None  # False, 0
     raise ValueError(f"equalize = {equalize!r}; expected True, False, 'stretch' or 'cdf'")
+
+
+#: border_mask: a pixel is dark when its mean over the views is at most this share of the
+#: 99th percentile of the means
+BORDER_THRESHOLD = 0.05
+#: border_mask: pixels this close (in pixels) to the dark border are dropped too
+BORDER_MARGIN = 8
+
+
+def border_mask(light_field: np.ndarray, threshold: float = BORDER_THRESHOLD,
+                margin: int = BORDER_MARGIN) -> np.ndarray:
+    """A detection mask that leaves out a lenslet capture's black, vignetted border.
+
+    The main lens of a lenslet camera leaves the edges of every sub-aperture view dark;
+    the edge between that border and the scene makes spurious features. The mask drops
+    the pixels whose mean over the views (weighted by alpha, when there is a weight
+    channel) is at most ``threshold`` times the 99th percentile of the means, or that no
+    view sees (all alpha 0), *where they are connected to the edge of the image*: dark
+    regions inside the scene are kept. Then it drops ``margin`` pixels more around them,
+    where features would straddle the border. A capture without such a border gets a
+    mask that keeps every pixel.
+
+    Parameters
+    ----------
+    light_field : ndarray, shape (T, S, V, U[, C]), or an image (V, U[, C])
+        uint8, uint16, float32 or float64; grey, BGR, grey + weight or BGRA. Not
+        modified; read one view at a time.
+    threshold : float
+        In (0, 1).
+    margin : int
+        Pixels, >= 0.
+
+    Returns
+    -------
+    ndarray of uint8, shape (V, U)
+        255 where features are kept, 0 where they are not: the ``mask`` argument of
+        ``LiFF.detect`` / ``detectAndCompute`` (``liff detect --mask auto``).
+
+    Raises
+    ------
+    ValueError
+        For a light field liff does not accept, or ``threshold`` / ``margin`` out of range.
+    """
+    import cv2
+
+    array = np.asarray(light_field)
+    _, weighted = _channel_layout(array)
+    if not (isinstance(threshold, numbers.Real) and 0 < threshold < 1):
+        raise ValueError(f"threshold = {threshold!r}; expected a number in (0, 1)")
+    if not (isinstance(margin, numbers.Integral) and margin >= 0):
+        raise ValueError(f"margin = {margin!r}; expected a whole number of pixels >= 0")
+    if array.ndim in (2, 3):
+        array = array[None, None]
+    V, U = array.shape[2:4]
+    total = np.zeros((V, U), np.float64)
+    weights = np.zeros((V, U), np.float64)
+    for view in array.reshape((-1,) + array.shape[2:]):
+        grey = to_luminance(view)
+        if weighted:
+            total += grey[..., 0] * grey[..., 1]
+            weights += grey[..., 1]
+        else:
+            total += grey
+            weights += 1
+    seen = weights > 1e-6 * weights.max() if weights.max() > 0 else np.zeros((V, U), bool)
+    mean = np.divide(total, weights, out=np.zeros_like(total), where=seen)
+    reference = float(np.percentile(mean[seen], 99)) if seen.any() else 0.0
+    dark = ~seen | (mean <= threshold * reference)
+    _, labels = cv2.connectedComponents(dark.astype(np.uint8), connectivity=8)
+    edge = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    edge = edge[edge > 0]  # label 0: the pixels that are not dark
+    keep = np.where(np.isin(labels, edge), 0, 255).astype(np.uint8)
+    if margin > 0 and edge.size:
+        disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * margin + 1, 2 * margin + 1))
+        keep = cv2.erode(keep, disc, borderType=cv2.BORDER_CONSTANT, borderValue=255)
+    return keep

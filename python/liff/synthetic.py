@@ -316,3 +316,60 @@ def match_blobs(keypoints, blobs: Sequence[Blob], found_within, spurious_beyond)
     truth = np.array([b.slope for b in blobs])
     errors = keypoint_slopes(keypoints)[nearest[found]] - truth[found]
     return BlobMatch(found, nearest, errors, spurious)
+
+
+def lenslet_capture(light_field: np.ndarray, border: float = 0.1, corner_gain: float = 0.35
+                    ) -> np.ndarray:
+    """A lenslet camera's defects applied to a light field, as a Lytro's decoded capture
+    shows them: the views of each lenslet darken towards its rim and the views beyond
+    its circle hold no light (alpha 0), and the main lens leaves a black, vignetted
+    border around every view.
+
+    Parameters
+    ----------
+    light_field : ndarray, shape (T, S, V, U)
+        Grey intensities in [0, 1] (e.g. :func:`textured_layers`' light field).
+    border : float
+        Width of the black border, as a share of min(V, U): intensities fall smoothly
+        to 0 over ``border`` and are 0 beyond, in a rounded rectangle.
+    corner_gain : float
+        Gain of the outermost views still inside the lenslet circle (1 at its centre,
+        falling quadratically with the distance from it).
+
+    Returns
+    -------
+    ndarray of uint8, shape (T, S, V, U, 4)
+        BGRA (grey repeated), alpha 255 for the views inside the lenslet circle
+        (distance from the centre view at most (max(T, S) - 1) / 2 + 0.5) and 0 outside,
+        where the intensities are 0 too. Write it with ``liff.io.write_eslf``.
+
+    Raises
+    ------
+    ValueError
+        If ``light_field`` is not 4-D, ``border`` is not in [0, 0.5) or ``corner_gain``
+        not in (0, 1].
+    """
+    light_field = np.asarray(light_field, np.float32)
+    if light_field.ndim != 4:
+        raise ValueError(f"light field shape {light_field.shape}; expected (T, S, V, U) grey")
+    if not 0 <= border < 0.5 or not 0 < corner_gain <= 1:
+        raise ValueError(f"border = {border!r}, corner_gain = {corner_gain!r}; expected border in "
+                         f"[0, 0.5) and corner_gain in (0, 1]")
+    T, S, V, U = light_field.shape
+    t = np.arange(T)[:, None] - (T - 1) / 2
+    s = np.arange(S)[None, :] - (S - 1) / 2
+    radius = (max(T, S) - 1) / 2 + 0.5
+    r = np.hypot(t, s) / radius  # 1 at the lenslet's rim
+    inside = r <= 1
+    gain = np.where(inside, 1 - (1 - corner_gain) * np.minimum(r, 1) ** 2, 0).astype(np.float32)
+    # main-lens vignetting: a rounded rectangle, smooth to 0 over `border`
+    width = max(border * min(V, U), 1e-6)
+    y = np.minimum(np.arange(V), V - 1 - np.arange(V))[:, None] / width
+    x = np.minimum(np.arange(U), U - 1 - np.arange(U))[None, :] / width
+    edge = np.clip(np.minimum(np.minimum(x, y), 1 - np.hypot(1 - np.minimum(x, 1), 1 - np.minimum(y, 1))), 0, 1)
+    spatial = (edge ** 2).astype(np.float32) if border > 0 else np.ones((V, U), np.float32)
+    grey = np.clip(light_field * gain[:, :, None, None] * spatial, 0, 1)
+    out = np.empty((T, S, V, U, 4), np.uint8)
+    out[..., :3] = np.round(grey * 255).astype(np.uint8)[..., None]
+    out[..., 3] = np.where(inside, 255, 0).astype(np.uint8)[:, :, None, None]
+    return out

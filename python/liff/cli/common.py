@@ -17,16 +17,22 @@ from .._detector import PARAMETERS, LiFF
 def add_reader_options(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("reading light fields (docs/INPUTS.md)")
     group.add_argument("--format", default=None,
-                       help="hci, views, eslf, mosaic, npy or npz (default: from the path)")
+                       help="hci, views, eslf, mosaic, npy, npz, mat or hdf5 (default: from the "
+                            "path)")
     group.add_argument("--grid", type=int, nargs=2, metavar=("T", "S"), default=None,
                        help="view grid (mosaics; overrides what view names say)")
     group.add_argument("--lenslet", type=int, default=None, metavar="N",
-                       help="lenslet size of an ESLF image (default 14)")
+                       help="lenslet size of an ESLF image (default: detected from the image; "
+                            "14 in the Stanford Lytro archive, 15 from the Light Field Toolbox)")
     group.add_argument("--keep-views", type=int, default=None, metavar="K",
                        help="ESLF: keep the centre K x K views (e.g. 11 of a Lytro's 14)")
     group.add_argument("--pattern", default=None,
                        help="views: regex with named groups t and s (or index) for the file names")
-    group.add_argument("--key", default=None, help="npz: the array holding the light field")
+    group.add_argument("--key", default=None,
+                       help="npz, mat, hdf5: the array, variable or dataset holding the light field")
+    group.add_argument("--bit-depth", type=int, default=None, metavar="B",
+                       help="the values are B-bit (e.g. 10 or 12 for sensor data in 16-bit files, "
+                            "8 for floats in 0..255): rescale them to the dtype's range")
     group.add_argument("--preprocess", action="store_true",
                        help="the paper's SfM preprocessing: luminance, gamma 0.5, "
                             "histogram equalisation")
@@ -47,6 +53,8 @@ def reader_options(args: argparse.Namespace) -> dict:
         options["pattern"] = args.pattern
     if args.key:
         options["key"] = args.key
+    if args.bit_depth is not None:
+        options["bit_depth"] = args.bit_depth
     return options
 
 

@@ -9,7 +9,7 @@ from .. import __version__
 from ..feature_file import Features, centre_view, save_features
 from ..io._shared import write_image
 from ..plot import draw_keypoints_by_slope
-from . import common
+from . import common, mask
 
 
 def add_parser(sub) -> None:
@@ -26,6 +26,7 @@ def add_parser(sub) -> None:
                         "a folder")
     p.add_argument("--workers", type=int, default=1, help="processes for many inputs (default 1)")
     p.add_argument("--overwrite", action="store_true", help="redo outputs that already exist")
+    mask.add_mask_option(p)
     common.add_reader_options(p)
     common.add_detector_options(p)
     p.set_defaults(run=run)
@@ -46,13 +47,15 @@ def destination(given, path: str, suffix: str, many: bool, force_suffix: bool = 
 
 
 def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
-               parameters: dict) -> int:
+               parameters: dict, mask_spec=None) -> int:
     """Reads, detects and writes one light field; returns the feature count."""
     light_field = common.load_light_field(path, options, preprocess)
     detector = common.make_detector(parameters)
-    keypoints, descriptors = detector.detectAndCompute(light_field, None)
+    keypoints, descriptors = detector.detectAndCompute(
+        light_field, mask.load_mask(mask_spec, light_field, path))
     meta = dict(source=os.path.abspath(path), shape=list(light_field.shape),
-                parameters=parameters, preprocess=preprocess, liff_version=__version__)
+                parameters=parameters, preprocess=preprocess, mask=mask_spec,
+                liff_version=__version__)
     view = centre_view(light_field)
     save_features(out, Features(tuple(keypoints), descriptors, view, meta))
     if plot:
@@ -82,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
             if target and os.path.dirname(target):
                 os.makedirs(os.path.dirname(target), exist_ok=True)
         jobs.append((path, out, plot, common.reader_options(args), args.preprocess,
-                     common.detector_parameters(args)))
+                     common.detector_parameters(args), args.mask))
     counts, failures = common.run_batch(detect_one, jobs, args.workers, "detect",
                                         label=lambda job: job[0])
     for job, count in zip(jobs, counts):

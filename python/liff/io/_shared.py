@@ -80,6 +80,23 @@ def check_light_field(array: np.ndarray, source: str) -> np.ndarray:
     return array
 
 
+def check_disparity(disparity, light_field: np.ndarray, source: str) -> np.ndarray:
+    """A ground-truth disparity map stored beside a light field, as float32 (V, U).
+
+    Raises
+    ------
+    ValueError
+        Naming ``source``: not an array of the views' size (V, U), or not real numbers.
+    """
+    if not isinstance(disparity, np.ndarray) or disparity.shape != light_field.shape[2:4]:
+        raise ValueError(f"{source}: shape {getattr(disparity, 'shape', None)}; "
+                         f"expected the views' (V, U) = {light_field.shape[2:4]}")
+    if disparity.dtype.kind not in "biuf":  # astype would parse strings, drop imaginary parts
+        raise ValueError(f"{source}: dtype {disparity.dtype}; expected real "
+                         f"numbers (disparity in pixels per view step)")
+    return disparity.astype(np.float32)
+
+
 def native_byte_order(array: np.ndarray) -> np.ndarray:
     """``array`` itself, or a copy in native byte order if it is stored otherwise (a
     big-endian ``'>f4'`` becomes float32 with the same values)."""
@@ -231,6 +248,78 @@ def write_image(path: PathLike, image: np.ndarray) -> None:
     if not ok:
         raise ValueError(f"{path}: OpenCV could not write the image; expected a writable path "
                          f"with an image ending such as .png or .tif")
+
+
+def pick_key(source: str, names: Sequence[str], key: Optional[str], preferred: str,
+             candidates: Sequence[str], kind: str = "array") -> str:
+    """The name of the stored array to read: ``key`` if given, else ``preferred`` if
+    present, else the only one of ``candidates``.
+
+    Raises
+    ------
+    ValueError
+        Naming ``source``: ``key`` absent, or no ``key`` and no single choice (listing
+        ``names``).
+    """
+    names = sorted(names)
+    if key is None:
+        if preferred in names:
+            key = preferred
+        elif len(candidates) == 1:
+            key = candidates[0]
+        else:
+            raise ValueError(f"{source}: {kind}s {names}; expected one named {preferred!r}, a "
+                             f"single {kind}, or key=...")
+    if key not in names:
+        raise ValueError(f"{source}: no {kind} {key!r}; expected one of {names}")
+    return key
+
+
+def rgb_to_bgr(array: np.ndarray) -> np.ndarray:
+    """A light field (T, S, V, U, C) stored with RGB colour (MATLAB, HDF5 files) in liff's
+    channel order: C = 3 (RGB) or 4 (RGB + weight) become BGR / BGR + weight, C = 1 is
+    dropped to (T, S, V, U), C = 2 (grey + weight) and 4-D arrays are returned as they
+    are. Other shapes are returned unchanged, for :func:`check_light_field` to refuse."""
+    if array.ndim != 5 or array.shape[4] not in (1, 3, 4):
+        return array
+    if array.shape[4] == 1:
+        return array[..., 0]
+    return array[..., [2, 1, 0, 3][: array.shape[4]]]
+
+
+def stored_file(path: PathLike, key, what: str, key_is: str) -> str:
+    """``path`` as a str, once it is known to be a file and ``key`` None or a str.
+
+    Raises
+    ------
+    ValueError
+        Naming ``path``: no such file (expected ``what``), or ``key`` not a str
+        (expected ``key_is``).
+    """
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise ValueError(f"{path}: no such file; expected {what}")
+    if key is not None and not isinstance(key, str):
+        raise ValueError(f"{path}: key {key!r}; expected {key_is} (str)")
+    return path
+
+
+def rgb_light_field(array, source: str) -> np.ndarray:
+    """A stored RGB(+weight) array as a C-contiguous light field in liff's channel order
+    (:func:`rgb_to_bgr`, then :func:`check_light_field`, which raises naming ``source``)."""
+    light_field = check_light_field(rgb_to_bgr(array), source)
+    return light_field if light_field.flags.c_contiguous else np.ascontiguousarray(light_field)
+
+
+def optional_module(name: str, extra: str, purpose: str):
+    """Imports the optional dependency ``name``; raises ImportError naming the pip extra
+    that installs it (``pip install 'liff[extra]'``) when it is missing."""
+    import importlib
+
+    try:
+        return importlib.import_module(name)
+    except ImportError as error:
+        raise ImportError(f"{purpose} needs {name.split('.')[0]}: pip install 'liff[{extra}]'") from error
 
 
 def describe_missing(names: Sequence[str], limit: int = 5) -> str:

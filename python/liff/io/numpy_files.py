@@ -11,7 +11,7 @@ from typing import Optional
 
 import numpy as np
 
-from ._shared import LightFieldFile, PathLike, check_light_field
+from ._shared import LightFieldFile, PathLike, check_disparity, check_light_field, pick_key
 
 LIGHT_FIELD_KEY = "light_field"
 DISPARITY_KEY = "gt_disparity"
@@ -58,17 +58,7 @@ def read_numpy(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
 
     with loaded:
         keys = sorted(loaded.files)
-        if key is None:
-            candidates = [k for k in keys if k != DISPARITY_KEY]
-            if LIGHT_FIELD_KEY in keys:
-                key = LIGHT_FIELD_KEY
-            elif len(candidates) == 1:
-                key = candidates[0]
-            else:
-                raise ValueError(f"{path}: arrays {keys}; expected one named {LIGHT_FIELD_KEY!r}, "
-                                 f"a single array, or key=...")
-        if key not in keys:
-            raise ValueError(f"{path}: no array {key!r}; expected one of {keys}")
+        key = pick_key(path, keys, key, LIGHT_FIELD_KEY, [k for k in keys if k != DISPARITY_KEY])
         try:  # members are read (and their headers parsed) only now
             array = loaded[key]
             disparity = loaded[DISPARITY_KEY] if DISPARITY_KEY in keys and key != DISPARITY_KEY else None
@@ -77,11 +67,5 @@ def read_numpy(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
                              "expected a .npz written by numpy") from None
         light_field = check_light_field(array, f"{path}[{key!r}]")
     if disparity is not None:
-        if not isinstance(disparity, np.ndarray) or disparity.shape != light_field.shape[2:4]:
-            raise ValueError(f"{path}[{DISPARITY_KEY!r}]: shape {getattr(disparity, 'shape', None)}; "
-                             f"expected the views' (V, U) = {light_field.shape[2:4]}")
-        if disparity.dtype.kind not in "biuf":  # astype would parse strings, drop imaginary parts
-            raise ValueError(f"{path}[{DISPARITY_KEY!r}]: dtype {disparity.dtype}; expected real "
-                             f"numbers (disparity in pixels per view step)")
-        disparity = disparity.astype(np.float32)
+        disparity = check_disparity(disparity, light_field, f"{path}[{DISPARITY_KEY!r}]")
     return LightFieldFile(light_field, "npz", {"key": key, "keys": keys}, disparity, path)

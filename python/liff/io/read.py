@@ -10,6 +10,9 @@ from ._shared import LightFieldFile, PathLike
 from .eslf import read_eslf
 from .hci import _VIEW as _HCI_VIEW
 from .hci import read_hci
+from .hdf5 import read_hdf5
+from .intensity import scale_bit_depth
+from .mat import read_mat
 from .mosaic import read_mosaic
 from .numpy_files import read_numpy
 from .views import read_views
@@ -29,9 +32,15 @@ FORMATS: Dict[str, tuple] = {
     "views": (read_views, "any other folder of views named like scene_RR_CC.png"),
     "npy": (read_numpy, "a .npy file"),
     "npz": (read_numpy, "a .npz file (option key=...)"),
-    "eslf": (read_eslf, "a *.eslf.png image, or format='eslf' (options n=14, keep=...)"),
+    "mat": (read_mat, "a MATLAB .mat file, variable LF (t, s, v, u, c) (option key=...)"),
+    "hdf5": (read_hdf5, "an .h5 / .hdf5 file, dataset LF (T, S, V, U[, C]) (option key=...)"),
+    "eslf": (read_eslf, "a *.eslf.png or *_eslf.png image, or format='eslf' (options n (default: "
+                        "detected), keep=...)"),
     "mosaic": (read_mosaic, "format='mosaic' with grid=(T, S) (one image of T x S tiles)"),
 }
+#: name endings of each file format (lower case)
+SUFFIXES = {".npy": "npy", ".npz": "npz", ".mat": "mat", ".h5": "hdf5", ".hdf5": "hdf5",
+            ".hdf": "hdf5"}
 
 
 def _accepted_formats() -> str:
@@ -44,30 +53,36 @@ def guess_format(path: PathLike) -> Optional[str]:
     if os.path.isdir(path):
         return "hci" if any(_HCI_VIEW.match(n) for n in os.listdir(path)) else "views"
     name = os.path.basename(path).lower()
-    if name.endswith(".npy"):
-        return "npy"
-    if name.endswith(".npz"):
-        return "npz"
-    if ".eslf." in name:
+    stem, suffix = os.path.splitext(name)
+    if suffix in SUFFIXES:
+        return SUFFIXES[suffix]
+    if ".eslf." in name or stem.endswith("_eslf"):
         return "eslf"
     return None
 
 
-def read_light_field(path: PathLike, format: Optional[str] = None, **options) -> LightFieldFile:
+def read_light_field(path: PathLike, format: Optional[str] = None, bit_depth=None,
+                     **options) -> LightFieldFile:
     """Reads a light field in any format liff knows (docs/INPUTS.md).
 
     Parameters
     ----------
     path : path
         A folder (HCI scene or views named by row and column), a ``.npy`` / ``.npz``
-        file, an ESLF image (``*.eslf.png``) or, with ``format="mosaic"``, a mosaic.
+        file, a MATLAB ``.mat`` file, an HDF5 file (``.h5``, ``.hdf5``), an ESLF image
+        (``*.eslf.png``, ``*_eslf.png``) or, with ``format="mosaic"``, a mosaic.
     format : str, optional
-        One of "hci", "views", "npy", "npz", "eslf", "mosaic"; guessed from ``path``
-        when omitted (a mosaic or an ESLF image without ``.eslf.`` in its name must be
-        named).
+        One of "hci", "views", "npy", "npz", "mat", "hdf5", "eslf", "mosaic"; guessed
+        from ``path`` when omitted (a mosaic, or an ESLF image without ``.eslf.`` or
+        ``_eslf.`` in its name, must be named).
+    bit_depth : int, optional
+        The light field holds ``bit_depth``-bit values (e.g. 10 or 12 for sensor data
+        stored in uint16, 8 for floats in 0..255): rescale them to the nominal range
+        of the dtype (:func:`liff.io.scale_bit_depth`); ``metadata["bit_depth"]`` records
+        it. Any format.
     **options
-        Passed to the format's reader: ``grid``, ``pattern`` (views); ``key`` (npz);
-        ``n``, ``keep`` (eslf); ``grid`` (mosaic, required).
+        Passed to the format's reader: ``grid``, ``pattern`` (views); ``key`` (npz, mat,
+        hdf5); ``n``, ``keep`` (eslf); ``grid`` (mosaic, required).
 
     Returns
     -------
@@ -77,8 +92,10 @@ def read_light_field(path: PathLike, format: Optional[str] = None, **options) ->
     ------
     ValueError
         If ``path`` does not exist, the format cannot be told or is unknown (the message
-        lists the accepted formats), an option does not apply to the format, or the
-        reader rejects the data.
+        lists the accepted formats), an option does not apply to the format, the reader
+        rejects the data, or values exceed ``bit_depth``.
+    ImportError
+        For .mat and HDF5 files when SciPy / h5py are missing (naming the pip extra).
     """
     path = os.fspath(path)
     if not os.path.exists(path):
@@ -97,5 +114,9 @@ def read_light_field(path: PathLike, format: Optional[str] = None, **options) ->
     unknown = sorted(set(options) - set(accepted))
     if unknown:
         raise ValueError(f"{path}: option(s) {', '.join(unknown)} do not apply to format "
-                         f"{format!r}; expected {', '.join(accepted) or 'no options'}")
-    return reader(path, **options)
+                         f"{format!r}; expected {', '.join(accepted + ['bit_depth'])}")
+    result = reader(path, **options)
+    if bit_depth is not None:
+        result.light_field = scale_bit_depth(result.light_field, bit_depth, path)
+        result.metadata["bit_depth"] = int(bit_depth)
+    return result

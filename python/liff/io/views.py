@@ -1,9 +1,14 @@
 """Folders of sub-aperture views whose file names carry the view's row and column.
 
 Examples of names read without options: ``scene_03_04.png``, the Stanford gantry's
-``out_03_04_-859.738525_1022.898743.png``, ``3_4.tif``, ``view_1_12.png``: the first
-two ``_``-separated whole numbers of the name (without its ending) are the view row
-``t`` and column ``s``. Indices may start at 0 or 1 and need not be zero-padded.
+``out_03_04_-859.738525_1022.898743.png``, ``3_4.tif``, ``view_1_12.png``, and Lytro
+dataset names with a scene id before the indices, ``0421_03_07.png`` (scene 421, row 3,
+column 7). Indices need not start at 0 or 1 (a crop of a larger grid, rows 8..10, reads
+as a 3-row grid) and need not be zero-padded.
+
+Incomplete sets (a cross or star of views through the centre, as some datasets ship)
+are read as the whole grid with a weight (alpha) of 0 for the missing views, so that
+LiFF uses the views that exist (docs/CONVENTIONS.md, alpha).
 """
 
 from __future__ import annotations
@@ -18,9 +23,11 @@ import numpy as np
 from ._shared import (IMAGE_SUFFIXES, LightFieldFile, PathLike, as_image, check_writable,
                       describe_missing, grid_size, read_image, write_image)
 
-# Row and column: the first two whole numbers separated by "_", each standing at the
-# start of the name or after "_", "-" or ".", followed by the end or "_", "-", ".".
-DEFAULT_NAME = re.compile(r"^(?:.*?[_.\-])??(?P<t>\d+)_(?P<s>\d+)(?:[_.\-].*)?$")
+# A run of two or more whole numbers joined by "_", the first number at the start of the
+# name or after "_", "-" or ".", the run followed by the end of the name or "_", "-", ".";
+# the parts of a decimal number (the gantry's "_311.025773_") are not whole numbers.
+# The first run in a name holds the view indices (see _indices_in_runs).
+NUMBER_RUN = re.compile(r"(?:^|(?<=[_\-])|(?<=(?<!\d)\.))(\d+(?:_\d+)+)(?=$|[_\-]|\.(?!\d))")
 
 
 def _compile(pattern: Union[str, Pattern, None], folder: str) -> Optional[Pattern]:
@@ -37,26 +44,56 @@ def _compile(pattern: Union[str, Pattern, None], folder: str) -> Optional[Patter
     return regex
 
 
+def _indices_in_runs(folder: str, runs: Dict[str, Tuple[int, ...]]) -> Dict[str, Tuple[int, int]]:
+    """{name: (t, s)} from each name's run of numbers ({name: numbers}).
+
+    A run of two numbers is (t, s). In a longer run the view indices are two adjacent
+    numbers, and every other number of the run must be the same in all names (a scene
+    id before them, a frame number after them); of the pairs for which this holds the
+    last is taken, so ``0421_03_07`` is row 3, column 7.
+    """
+    lengths = {}
+    for name, numbers in runs.items():
+        lengths.setdefault(len(numbers), name)
+    if len(lengths) > 1:
+        examples = " and ".join(f"{name} ({count} numbers)" for count, name in sorted(lengths.items())[:2])
+        raise ValueError(f"{folder}: view names hold runs of different lengths of _-joined "
+                         f"numbers: {examples}; expected one naming scheme (or pattern=...)")
+    (count, _), = lengths.items()
+    for first in range(count - 2, -1, -1):
+        others = [i for i in range(count) if i not in (first, first + 1)]
+        if all(len({numbers[i] for numbers in runs.values()}) == 1 for i in others):
+            return {name: (numbers[first], numbers[first + 1]) for name, numbers in runs.items()}
+    varying = sorted(runs.items(), key=lambda item: item[1])
+    raise ValueError(f"{folder}: names hold {count} _-joined numbers and more than two of them "
+                     f"vary (e.g. {varying[0][0]} and {varying[-1][0]}: several light fields in "
+                     f"one folder?); expected the view row and column as two adjacent numbers, "
+                     f"the others the same in every name (or pattern=...)")
+
+
 def _find_views(folder: str, regex: Optional[Pattern], grid, linear: bool
                 ) -> Dict[Tuple[int, int], str]:
     """{(t, s) as numbered in the names: file name} for the folder's views; with a
     running index (``linear``), {(index, 0): file name}."""
-    numbered: Dict[Tuple[int, int], str] = {}
     if linear and grid is None:
         raise ValueError(f"{folder}: pattern {regex.pattern!r} numbers views by (?P<index>...); "
                          f"expected grid=(T, S) to go with it")
+    keys: Dict[str, Tuple[int, int]] = {}
+    runs: Dict[str, Tuple[int, ...]] = {}
     for name in sorted(os.listdir(folder)):
         if regex is None:
             stem, suffix = os.path.splitext(name)
-            m = DEFAULT_NAME.match(stem) if suffix.lower() in IMAGE_SUFFIXES else None
-        else:
-            m = regex.fullmatch(name)
-        if not m:
+            m = NUMBER_RUN.search(stem) if suffix.lower() in IMAGE_SUFFIXES else None
+            if m:
+                runs[name] = tuple(int(number) for number in m.group(1).split("_"))
             continue
-        if linear:
-            key = (int(m.group("index")), 0)
-        else:
-            key = (int(m.group("t")), int(m.group("s")))
+        m = regex.fullmatch(name)
+        if m:
+            keys[name] = (int(m.group("index")), 0) if linear else (int(m.group("t")), int(m.group("s")))
+    if runs:
+        keys = _indices_in_runs(folder, runs)
+    numbered: Dict[Tuple[int, int], str] = {}
+    for name, key in keys.items():
         if key in numbered:
             raise ValueError(f"{folder}: {numbered[key]} and {name} are both view "
                              f"{key[0] if linear else key}; expected one file per view")
@@ -68,18 +105,57 @@ def _find_views(folder: str, regex: Optional[Pattern], grid, linear: bool
     return numbered
 
 
+def centre_indices(count: int) -> range:
+    """The centre index of ``count`` views, or the two centre ones when ``count`` is even."""
+    return range((count - 1) // 2, count // 2 + 1)
+
+
+def pattern_problem(present, T: int, S: int) -> Optional[str]:
+    """Why the views ``present`` ({(t, s)}, 0-based) of a T x S grid are not a usable
+    incomplete set, or None if they are.
+
+    Usable: the set holds the whole centre row and column (both middle rows / columns
+    for an even count) and is symmetric about the centre (view (t, s) present means
+    view (T-1-t, S-1-s) present): a cross or a star of views through the centre, or any
+    larger symmetric set. Missing views scattered in an otherwise full grid (an
+    incomplete download) are not, nor are a few views in a large grid (names that are
+    not view indices).
+    """
+    present = set(present)
+    rows, cols = centre_indices(T), centre_indices(S)
+
+    def in_cross(t: int, s: int) -> bool:
+        return t in rows or s in cols
+
+    # Counted from the views present, so that a huge grid costs nothing.
+    cross_size = len(rows) * S + len(cols) * T - len(rows) * len(cols)
+    absent = cross_size - sum(in_cross(t, s) for t, s in present)
+    if absent:
+        cross = itertools.chain(((t, s) for t in rows for s in range(S)),
+                                ((t, s) for s in cols for t in range(T)))
+        t, s = next(view for view in cross if view not in present)
+        return f"the centre row and column lack {absent} view(s), e.g. (t={t}, s={s})"
+    for t, s in sorted(present):
+        if (T - 1 - t, S - 1 - s) not in present:
+            return (f"view (t={t}, s={s}) is present but its mirror image about the centre "
+                    f"(t={T - 1 - t}, s={S - 1 - s}) is not")
+    return None
+
+
 def _arrange(folder: str, numbered: Dict[Tuple[int, int], str], grid, linear: bool):
-    """(T, S, first index, {(t, s) 0-based: name})."""
-    indices = [i for key in numbered for i in (key[:1] if linear else key)]
-    first = min(indices)
-    if first not in (0, 1):
-        raise ValueError(f"{folder}: the smallest view index in the names is {first}; expected "
-                         f"indices starting at 0 or 1")
+    """(T, S, first indices (t0, s0), {(t, s) 0-based: name})."""
     if linear:
+        first = min(i for i, _ in numbered)
+        if first not in (0, 1):
+            raise ValueError(f"{folder}: the smallest view index in the names is {first}; "
+                             f"expected a running index starting at 0 or 1")
         T, S = grid_size(grid, folder)
         views = {divmod(i - first, S): name for (i, _), name in numbered.items()}
+        origin = (first, first)
     else:
-        views = {(t - first, s - first): name for (t, s), name in numbered.items()}
+        # Any contiguous block: each axis is numbered from its smallest index.
+        origin = (min(t for t, _ in numbered), min(s for _, s in numbered))
+        views = {(t - origin[0], s - origin[1]): name for (t, s), name in numbered.items()}
     found_t = 1 + max(t for t, _ in views)
     found_s = 1 + max(s for _, s in views)
     if grid is None:
@@ -88,16 +164,26 @@ def _arrange(folder: str, numbered: Dict[Tuple[int, int], str], grid, linear: bo
         T, S = grid_size(grid, folder)
         if found_t > T or found_s > S:
             raise ValueError(f"{folder}: names number views up to a {found_t}x{found_s} grid "
-                             f"(first index {first}); expected grid={T, S} to hold them")
+                             f"({_numbered_from(origin, linear)}); expected grid={T, S} to "
+                             f"hold them")
     missing_count = T * S - len(views)  # views holds distinct (t, s) inside the grid
     if missing_count:
-        # Name the first few without listing a grid that huge indices can make enormous.
-        missing = itertools.islice(((t, s) for t in range(T) for s in range(S)
-                                    if (t, s) not in views), 6)
-        shown = [f"(t={t + first}, s={s + first})" for t, s in missing]
-        raise ValueError(f"{folder}: {missing_count} views missing for a {T}x{S} grid "
-                         f"(first index {first}): {describe_missing(shown)}")
-    return T, S, first, views
+        problem = pattern_problem(views, T, S)
+        if problem:
+            # Name the first few without listing a grid that huge indices can make enormous.
+            missing = itertools.islice(((t, s) for t in range(T) for s in range(S)
+                                        if (t, s) not in views), 6)
+            shown = [f"(t={t + origin[0]}, s={s + origin[1]})" for t, s in missing]
+            raise ValueError(
+                f"{folder}: {missing_count} views missing for a {T}x{S} grid "
+                f"({_numbered_from(origin, linear)}): {describe_missing(shown)}; expected every "
+                f"view, or an incomplete set holding the centre row and column and symmetric "
+                f"about the centre (a cross or star of views), but {problem}")
+    return T, S, origin, views
+
+
+def _numbered_from(origin: Tuple[int, int], linear: bool) -> str:
+    return f"index from {origin[0]}" if linear else f"numbered from t={origin[0]}, s={origin[1]}"
 
 
 def read_views(folder: PathLike, grid=None, pattern: Union[str, Pattern, None] = None
@@ -107,29 +193,49 @@ def read_views(folder: PathLike, grid=None, pattern: Union[str, Pattern, None] =
     Parameters
     ----------
     folder : path
-        The folder. Files whose names do not match are ignored.
+        The folder. Files whose names do not match are ignored. Default naming: the
+        first run of two or more ``_``-joined whole numbers in the name (less its
+        ending); a run of two is (t, s); in a longer run (``0421_03_07``: scene 421, row
+        3, column 7) the view indices are two adjacent numbers, the others being the
+        same in every name, the last such pair.
     grid : (int, int), optional
-        (T, S). Without it the grid spans the indices found. With it, the names must fit
-        in it and every view of it must be present.
+        (T, S). Without it the grid spans the indices found: each axis from its smallest
+        index to its largest, so any contiguous block reads (0- or 1-based, or a crop
+        numbered 8..10). With it, the names must fit in it, numbered from the smallest
+        index of each axis.
     pattern : str or compiled regex, optional
         Matched against the whole file name (``re.fullmatch``, any ending) instead of the
         default rule; named groups ``t`` (row) and ``s`` (column), or ``index`` (row-major
-        ``t * S + s``, needs ``grid``). Example: ``r"cam_(?P<s>\\d+)_(?P<t>\\d+)\\.png"``.
+        ``t * S + s`` from 0 or 1, needs ``grid``). Example:
+        ``r"cam_(?P<s>\\d+)_(?P<t>\\d+)\\.png"``.
 
     Returns
     -------
     LightFieldFile
         ``light_field`` (T, S, V, U[, C]) as stored (``cv2.IMREAD_UNCHANGED``; BGR,
-        alpha kept as the last channel); ``metadata``: ``grid`` (T, S),
-        ``first_index`` (0 or 1, as numbered in the names), ``files`` (T x S nested
-        list of file names).
+        alpha kept as the last channel). When views are missing from a usable pattern
+        (see below) the missing views are 0 with an alpha of 0, and views without alpha
+        get one (full: 255 for uint8, 65535 for uint16, 1.0 for floats), so C = 1 or 3
+        becomes 2 or 4. ``metadata``: ``grid`` (T, S), ``first_index`` (t0, s0), the
+        indices of the first row and column as numbered in the names, ``files`` (T x S
+        nested list of file names, None for a missing view), ``missing`` (list of the
+        missing views' 0-based (t, s)), ``added_alpha`` (True if the reader added the
+        alpha channel).
 
     Raises
     ------
     ValueError
-        Naming the folder or file: not a folder, no views, two files for one view,
-        indices not starting at 0 or 1, views missing, names outside ``grid``, or views
-        of differing size, channel count or dtype.
+        Naming the folder or file: not a folder, no views, two files for one view, names
+        numbered in more than one way, views missing other than in a usable pattern,
+        names outside ``grid``, or views of differing size, channel count or dtype.
+
+    Notes
+    -----
+    An incomplete set is read only if it holds the whole centre row and column (both
+    middle ones for an even count) and is symmetric about the centre: a cross or a
+    star of views through the centre, for example. Anything else with views missing
+    is refused, naming the first missing views (an incomplete download should not read
+    as a light field with holes).
     """
     folder = os.fspath(folder)
     if not os.path.isdir(folder):
@@ -137,6 +243,7 @@ def read_views(folder: PathLike, grid=None, pattern: Union[str, Pattern, None] =
     regex = _compile(pattern, folder)
     linear = regex is not None and "t" not in regex.groupindex
     T, S, first, views = _arrange(folder, _find_views(folder, regex, grid, linear), grid, linear)
+    complete = len(views) == T * S
 
     light_field: Optional[np.ndarray] = None
     for (t, s), name in sorted(views.items()):
@@ -144,14 +251,34 @@ def read_views(folder: PathLike, grid=None, pattern: Union[str, Pattern, None] =
         image = read_image(path)
         if light_field is None:
             reference, first_name = image, name
-            light_field = np.empty((T, S) + image.shape, image.dtype)
+            light_field, add_alpha = _allocate((T, S), image, complete)
         elif image.shape != reference.shape or image.dtype != reference.dtype:
             raise ValueError(f"{path}: view is {_describe(image)}; expected "
                              f"{_describe(reference)} like {first_name}")
-        light_field[t, s] = image
-    files = [[views[t, s] for s in range(S)] for t in range(T)]
-    metadata = {"grid": (T, S), "first_index": first, "files": files}
+        if add_alpha:
+            light_field[t, s, ..., :-1] = image.reshape(light_field.shape[2:4] + (-1,))
+            light_field[t, s, ..., -1] = _full_scale(image.dtype)
+        else:
+            light_field[t, s] = image
+    files = [[views.get((t, s)) for s in range(S)] for t in range(T)]
+    missing = [(t, s) for t in range(T) for s in range(S) if (t, s) not in views]
+    metadata = {"grid": (T, S), "first_index": first, "files": files, "missing": missing,
+                "added_alpha": add_alpha}
     return LightFieldFile(light_field, "views", metadata, None, folder)
+
+
+def _allocate(grid: Tuple[int, int], image: np.ndarray, complete: bool):
+    """(zeroed light field for views like ``image``, whether an alpha channel is added):
+    a complete set is stored as is; an incomplete one needs alpha to mark its holes."""
+    channels = 1 if image.ndim == 2 else image.shape[2]
+    add_alpha = not complete and channels in (1, 3)
+    shape = image.shape[:2] + ((channels + 1,) if add_alpha else image.shape[2:])
+    return np.zeros(grid + shape, image.dtype), add_alpha
+
+
+def _full_scale(dtype: np.dtype):
+    """The alpha of a fully valid sample: 255, 65535 or 1.0."""
+    return np.iinfo(dtype).max if np.issubdtype(dtype, np.integer) else 1.0
 
 
 def _describe(image: np.ndarray) -> str:

@@ -1,0 +1,16 @@
+"""Warning classes of liff (no heavy imports: ``import liff`` loads this module)."""
+
+
+class LiffWarning(UserWarning):
+    """Base class of the warnings liff issues about its input."""
+
+
+class IntensityWarning(LiffWarning):
+    """A light field's values do not fill the range its dtype is read on (uint16 holding
+    10- or 12-bit sensor data, floats in 0..255, ...): LiFF's thresholds would be off.
+    See :func:`liff.io.check_intensity`."""
+
+
+class LensletSizeWarning(LiffWarning):
+    """An ESLF image's detected lenslet size disagrees with one of the cues
+    (:func:`liff.io.detect_lenslet_size`)."""

@@ -44,7 +44,8 @@ SLOPE_GRID = np.linspace(-1.2, 1.2, 25)
 def run(reps: int):
     blobs = synthetic.paper_disks(26, SHAPE, contrast=0.1, seed=0)
     clean = synthetic.render_disks(blobs, SHAPE, background=0.5)
-    liff_detector = liff.LiFF.create(contrastThreshold=min(THRESHOLDS), numSlopes=9)
+    liff_detector = liff.LiFF.create(contrastThreshold=min(THRESHOLDS), firstSlope=-1, lastSlope=1,
+                                     numSlopes=9)  # the paper's: 9 slopes in [-1, 1]
     # results[(method, noise, threshold)] = list of (tp_rate, fp, slope errors)
     results: dict = {}
     for noise in NOISE:

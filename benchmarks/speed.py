@@ -78,7 +78,7 @@ def main(argv=None) -> int:
     T, S, V, U = lf.shape
     n_views = T * S
     centre8 = to_uint8(lf[T // 2, S // 2])
-    detector = liff.LiFF.create(numSlopes=11)
+    detector = liff.LiFF.create(firstSlope=-1, lastSlope=1, numSlopes=11)  # the paper's Illum setting
     sift = cv2.SIFT.create()
 
     # LiFF, SIFT on the centre view and SIFT on the next share of the 121 views take
@@ -164,7 +164,7 @@ def scaling(repeats: int) -> None:
 
 def run_case(shape, M, repeats):
     lf = layered_light_field(shape)
-    detector = liff.LiFF.create(numSlopes=M)
+    detector = liff.LiFF.create(firstSlope=-1, lastSlope=1, numSlopes=M)
     seconds, (kps, _) = best_of(repeats, lambda: detector.detectAndCompute(lf, None))
     return M, shape[0] * shape[1], shape[2] * shape[3], len(kps), seconds
 

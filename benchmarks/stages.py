@@ -31,7 +31,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     liff.setNumThreads(args.threads)
     lf = layered_light_field(ILLUM_SHAPE)
-    detector = liff.LiFF.create(numSlopes=11)
+    detector = liff.LiFF.create(firstSlope=-1, lastSlope=1, numSlopes=11)  # the paper's Illum setting
     keypoints, _ = detector.detectAndCompute(lf, None)  # first call: allocations
     walls = []
     for _ in range(args.calls):

@@ -222,9 +222,9 @@ def test_compute_far_and_huge_keypoints_do_not_crash():
     assert desc.shape == (2, 128)
 
 
-def test_automatic_slope_count_is_bounded():
+def test_default_slope_count_is_bounded():
     with pytest.raises(ValueError, match="axis order"):
-        liff.LiFF.create().slopesFor(1, 100000)
+        liff.LiFF.create(firstSlope=-1, lastSlope=1).slopesFor(1, 100000)
 
 
 @pytest.mark.parametrize("first, last", [(-1.0, 1.0), (-12.0, 12.0)])

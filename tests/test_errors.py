@@ -105,7 +105,8 @@ BAD_PARAMS = [
     (dict(descriptorType=cv2.CV_16U), "descriptorType"),
     (dict(firstSlope=float("nan")), "firstSlope"),
     (dict(lastSlope=float("nan")), "lastSlope"),
-    (dict(firstSlope=float("-inf")), "firstSlope"),
+    (dict(firstSlope=float("inf")), "firstSlope"),  # -inf is the automatic range
+    (dict(lastSlope=float("-inf")), "lastSlope"),
 ]
 
 

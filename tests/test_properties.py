@@ -325,8 +325,9 @@ PARAMETERS = {
     "contrastThreshold": (any_float(), lambda v: math.isfinite(v) and v >= 0),
     "edgeThreshold": (any_float(), lambda v: math.isfinite(v) and v >= 1),
     "sigma": (any_float(), lambda v: math.isfinite(v) and 0.01 <= v <= 100),
-    "firstSlope": (any_float(), lambda v: math.isfinite(v) and abs(v) <= 1e4),
-    "lastSlope": (any_float(), lambda v: math.isfinite(v) and abs(v) <= 1e4),
+    # -inf / +inf: the automatic range (docs/SLOPES.md)
+    "firstSlope": (any_float(), lambda v: (math.isfinite(v) and abs(v) <= 1e4) or v == -math.inf),
+    "lastSlope": (any_float(), lambda v: (math.isfinite(v) and abs(v) <= 1e4) or v == math.inf),
     "numSlopes": (any_int(), lambda v: 0 <= v <= 4096),
     "descriptorType": (st.one_of(any_int(), st.sampled_from([cv2.CV_8U, cv2.CV_32F])),
                        lambda v: v in (cv2.CV_8U, cv2.CV_32F)),
@@ -359,7 +360,10 @@ def test_any_parameters_are_accepted_and_work_or_are_rejected_by_name(params):
     assert not invalid, f"accepted invalid {invalid} in {params}"
     for name, value in params.items():
         assert getattr(d, GETTER[name])() == value
-    if cheap(params):
+    if cheap(params) and math.isinf(d.getFirstSlope()) + math.isinf(d.getLastSlope()) == 1:
+        # half automatic: the finite end bounds the survey; any order is fine
+        detect_checked(d, TINY_LF)
+    elif cheap(params):
         # firstSlope > lastSlope, or equal slopes without numSlopes = 1, fail here
         outcome = detect_checked(d, TINY_LF, expect_error="either")
         if isinstance(outcome, ValueError):
@@ -402,8 +406,17 @@ def test_slopes_for_any_view_counts_are_a_sorted_grid_or_rejected(T, S, numSlope
     # test_slopes_for_ends_exactly_at_last_slope)
     ulps = 4 * np.spacing(max(abs(d.getFirstSlope()), abs(d.getLastSlope()), 1.0))
     assert slopes[0] >= d.getFirstSlope() - ulps and slopes[-1] <= d.getLastSlope() + ulps
-    if T * S > 1:
-        assert len(slopes) == (numSlopes or (max(T, S) | 1))
+    if T * S > 1 and numSlopes:
+        assert len(slopes) == numSlopes
+    elif T * S > 1:
+        # the smallest odd count (at least 3) whose spacing is at most one pixel of
+        # parallax at the outermost view, 2 / (max(T, S) - 1)
+        spacing = 2.0 / (max(T, S) - 1)
+        n = len(slopes)
+        assert n % 2 == 1 and n >= 3
+        width = d.getLastSlope() - d.getFirstSlope()
+        assert width / (n - 1) <= spacing * (1 + 1e-9)
+        assert n == 3 or width / (n - 3) > spacing * (1 - 1e-9)
 
 
 # --- readers ------------------------------------------------------------------------
@@ -550,6 +563,8 @@ def test_parameters_of_the_wrong_type_raise_type_error(name, value):
 def test_slopes_for_rejects_view_counts_below_one(T, S):
     with pytest.raises(ValueError, match="expected at least 1 view"):
         liff.LiFF.create().slopesFor(T, S)
+    with pytest.raises(ValueError, match="expected at least 1 view"):
+        liff.LiFF.create(firstSlope=-1, lastSlope=1).slopesFor(T, S)
 
 
 def test_slopes_for_ends_exactly_at_last_slope():

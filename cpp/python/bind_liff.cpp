@@ -1,14 +1,17 @@
 // liff._core.LiFF: the detector behind the Python class liff.LiFF, which subclasses
 // it and turns keypoint rows into cv2.KeyPoint objects.
-#include "arrays.hpp"
-#include "bindings.hpp"
-#include "parameter_values.hpp"
-
-#include <liff/liff.hpp>
-
 #include <pybind11/stl.h>
 
+#include <algorithm>
+#include <cmath>
+#include <liff/liff.hpp>
 #include <string>
+
+#include "arrays.hpp"
+#include "bindings.hpp"
+#include "light_field.hpp"
+#include "parameter_values.hpp"
+#include "slope_range.hpp"
 
 namespace liff {
 namespace python {
@@ -46,16 +49,19 @@ py::tuple run(const PyLiFF& self, const py::array& lf, const py::object& mask,
 const char* kFileStorageNames = "(.yml, .yaml, .xml or .json)";
 
 void bindAccessors(py::class_<PyLiFF>& cls) {
-#define LIFF_BIND_ACCESSORS(Type, name, Name, value, help)                                  \
-  cls.def("get" #Name, [](const PyLiFF& s) { return s.impl->get##Name(); },                \
-          "Returns " #name ": " help ".");                                                 \
-  cls.def("set" #Name,                                                                     \
-          [](PyLiFF& s, const py::object& v) { s.impl->set##Name(number<Type>(v, #name)); }, \
-          "value"_a, "Sets " #name ": " help ". Raises ValueError if out of range.");
+#define LIFF_BIND_ACCESSORS(Type, name, Name, value, help)                               \
+  cls.def(                                                                               \
+      "get" #Name, [](const PyLiFF& s) { return s.impl->get##Name(); },                  \
+      "Returns " #name ": " help ".");                                                   \
+  cls.def(                                                                               \
+      "set" #Name,                                                                       \
+      [](PyLiFF& s, const py::object& v) { s.impl->set##Name(number<Type>(v, #name)); }, \
+      "value"_a, "Sets " #name ": " help ". Raises ValueError if out of range.");
   LIFF_PARAMETERS(LIFF_BIND_ACCESSORS)
 #undef LIFF_BIND_ACCESSORS
-  cls.def("getMemoryLimitMB", [](const PyLiFF& s) { return s.impl->getMemoryLimitMB(); },
-          "Returns the memory limit in MB (see setMemoryLimitMB).");
+  cls.def(
+      "getMemoryLimitMB", [](const PyLiFF& s) { return s.impl->getMemoryLimitMB(); },
+      "Returns the memory limit in MB (see setMemoryLimitMB).");
   cls.def(
       "setMemoryLimitMB",
       [](PyLiFF& s, const py::object& v) {
@@ -125,10 +131,11 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
           "Creates a detector from keywords of liff._core.PARAMETERS (the rest default); "
           "raises TypeError for an unknown keyword or a wrong type, ValueError out of range.");
   bindAccessors(cls);
-  cls.def("slopesFor", [](const PyLiFF& s, int T, int S) { return s.impl->slopesFor(T, S); },
-          "T"_a, "S"_a,
-          "The focal-stack slopes for a light field of T x S views with a finite slope range "
-          "(list of float); ValueError with an automatic range.");
+  cls.def(
+      "slopesFor", [](const PyLiFF& s, int T, int S) { return s.impl->slopesFor(T, S); }, "T"_a,
+      "S"_a,
+      "The focal-stack slopes for a light field of T x S views with a finite slope range "
+      "(list of float); ValueError with an automatic range.");
   cls.def(
       "_slopes_for_light_field",
       [](PyLiFF& s, const py::array& lf) {
@@ -137,18 +144,38 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
         return s.impl->slopesFor(image);
       },
       "lf"_a, "The focal-stack slopes detection would use for this light field.");
-  cls.def("getSlicesUsed", [](const PyLiFF& s) { return s.impl->getSlicesUsed(); },
-          "Slopes of every focal slice the last call built, increasing (list of float).");
-  cls.def("getSearchedSlopes", [](const PyLiFF& s) { return s.impl->getSearchedSlopes(); },
-          "Slopes of the slices the last call searched for extrema (list of float).");
-  cls.def("descriptorSize", [](const PyLiFF& s) { return s.impl->descriptorSize(); },
-          "Descriptor length: 128.");
-  cls.def("descriptorType", [](const PyLiFF& s) { return s.impl->descriptorType(); },
-          "Descriptor element type: cv2.CV_32F (default) or cv2.CV_8U.");
-  cls.def("defaultNorm", [](const PyLiFF& s) { return s.impl->defaultNorm(); },
-          "Norm to match descriptors with: cv2.NORM_L2.");
-  cls.def("getDefaultName", [](const PyLiFF& s) { return std::string(s.impl->getDefaultName()); },
-          "Algorithm name: 'Feature2D.LiFF'.");
+  cls.def(
+      "_survey",
+      [](PyLiFF& s, const py::array& lf) {
+        const cv::Mat image = lightFieldMat(lf);
+        Parameters p = s.impl->getParameters();
+        py::gil_scoped_release release;
+        detail::LightField field = detail::checkLightField(image);
+        detail::convertLightField(image, field);
+        return detail::surveySlopes(field, p, -HUGE_VAL, HUGE_VAL, std::max(1, cv::getNumThreads()))
+            .slopes;
+      },
+      "lf"_a,
+      "The slopes (px per view step) of the features the automatic range's survey keeps for "
+      "this light field, whatever this detector's own range (docs/SLOPES.md).");
+  cls.def(
+      "getSlicesUsed", [](const PyLiFF& s) { return s.impl->getSlicesUsed(); },
+      "Slopes of every focal slice the last call built, increasing (list of float).");
+  cls.def(
+      "getSearchedSlopes", [](const PyLiFF& s) { return s.impl->getSearchedSlopes(); },
+      "Slopes of the slices the last call searched for extrema (list of float).");
+  cls.def(
+      "descriptorSize", [](const PyLiFF& s) { return s.impl->descriptorSize(); },
+      "Descriptor length: 128.");
+  cls.def(
+      "descriptorType", [](const PyLiFF& s) { return s.impl->descriptorType(); },
+      "Descriptor element type: cv2.CV_32F (default) or cv2.CV_8U.");
+  cls.def(
+      "defaultNorm", [](const PyLiFF& s) { return s.impl->defaultNorm(); },
+      "Norm to match descriptors with: cv2.NORM_L2.");
+  cls.def(
+      "getDefaultName", [](const PyLiFF& s) { return std::string(s.impl->getDefaultName()); },
+      "Algorithm name: 'Feature2D.LiFF'.");
   cls.def("empty", [](const PyLiFF& s) { return s.impl->empty(); }, "Always False.");
   cls.def(
       "_run", &run, "lf"_a, "mask"_a = py::none(), "keypoints"_a = py::none(),

@@ -1,10 +1,10 @@
 // liff._core.PARAMETERS: the parameter table of liff/parameters.hpp, from which the
 // Python create(), its stubs' check and the `liff` command's options are made.
-#include "bindings.hpp"
-#include "parameter_values.hpp"
-
 #include <set>
 #include <string>
+
+#include "bindings.hpp"
+#include "parameter_values.hpp"
 
 namespace liff {
 namespace python {
@@ -23,8 +23,8 @@ const char* typeName() {
 Parameters parametersFrom(const py::kwargs& kwargs) {
   Parameters parameters;
   std::set<std::string> known;
-#define LIFF_FROM_KWARG(Type, name, Name, value, help)                            \
-  known.insert(#name);                                                            \
+#define LIFF_FROM_KWARG(Type, name, Name, value, help) \
+  known.insert(#name);                                 \
   if (kwargs.contains(#name)) parameters.name = number<Type>(kwargs[#name], #name);
   LIFF_PARAMETERS(LIFF_FROM_KWARG)
 #undef LIFF_FROM_KWARG

@@ -1,12 +1,10 @@
 // What the core runs on: its threads, the OpenCV it was built against, and the
 // stage timers benchmarks read.
-#include "bindings.hpp"
-
-#include "profile.hpp"
-
 #include <opencv2/core.hpp>
-
 #include <string>
+
+#include "bindings.hpp"
+#include "profile.hpp"
 
 namespace liff {
 namespace python {
@@ -24,8 +22,9 @@ void BindThreads(py::module_& m) {
 }
 
 void BindVersion(py::module_& m) {
-  m.def("opencvVersion", [] { return std::string(CV_VERSION); },
-        "Version of the system OpenCV the core was built against.");
+  m.def(
+      "opencvVersion", [] { return std::string(CV_VERSION); },
+      "Version of the system OpenCV the core was built against.");
 }
 
 void BindProfiling(py::module_& m) {

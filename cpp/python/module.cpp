@@ -1,9 +1,8 @@
 // liff._core: the compiled part of the liff package.
-#include "bindings.hpp"
-
 #include <liff/liff.hpp>
-
 #include <string>
+
+#include "bindings.hpp"
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "Compiled core of liff (C++17, linked to the system OpenCV).";

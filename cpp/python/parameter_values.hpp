@@ -1,11 +1,10 @@
 // Python values -> the detector's parameters, with errors that name the parameter.
 #pragma once
 
-#include <liff/parameters.hpp>
-
 #include <pybind11/pybind11.h>
 
 #include <climits>
+#include <liff/parameters.hpp>
 #include <string>
 #include <type_traits>
 
@@ -37,8 +36,9 @@ T number(const py::handle& value, const char* name) {
     int overflow = 0;
     const long long v = PyLong_AsLongLongAndOverflow(index.ptr(), &overflow);
     if (overflow != 0 || v < INT_MIN || v > INT_MAX)
-      throw py::value_error(what + "; expected an integer in the 32-bit range (and see the "
-                                   "parameter's own range)");
+      throw py::value_error(what +
+                            "; expected an integer in the 32-bit range (and see the "
+                            "parameter's own range)");
     return int(v);
   } else {
     const double v = PyFloat_AsDouble(value.ptr());

@@ -154,28 +154,26 @@ bool refine(const ScaleSpace& space, int o, const DetectParams& params, int r, i
 
 float subSlopeOffset(const SliceNeighbourhood& slices, int o, const Refined& e) {
   if (!slices.below || !slices.above) return 0.f;
-  const float d0raw = slices.here->dog(o, e.layer).at<float>(e.r, e.c);
-  const float dmraw = slices.below->dog(o, e.layer).at<float>(e.r, e.c);
-  const float dpraw = slices.above->dog(o, e.layer).at<float>(e.r, e.c);
-  static const int mode = std::getenv("LIFF_SUBSLOPE") ? std::atoi(std::getenv("LIFF_SUBSLOPE")) : 0;
-  float d0 = d0raw, dm = dmraw, dp = dpraw;
-  if (mode >= 2) {  // each slice's quadratic model at the refined offset
-    auto at = [&](const ScaleSpace* sp) {
-      const DogDerivatives d = dogDerivatives(*sp, o, e.layer, e.r, e.c);
-      const cv::Vec3f x(e.xc, e.xr, e.xi);
-      return d.value + d.gradient.dot(x) + 0.5f * x.dot(d.hessian() * x);
-    };
-    d0 = at(slices.here); dm = at(slices.below); dp = at(slices.above);
+  // Each slice's DoG at the refined sub-pixel position and scale x_hat, from its own
+  // quadratic model: D(x_hat) = D + g . x_hat + x_hat' H x_hat / 2.
+  const cv::Vec3f x(e.xc, e.xr, e.xi);
+  auto at = [&](const ScaleSpace* space) {
+    const DogDerivatives d = dogDerivatives(*space, o, e.layer, e.r, e.c);
+    return d.value + d.gradient.dot(x) + 0.5f * x.dot(d.hessian() * x);
+  };
+  const float dm = at(slices.below), d0 = at(slices.here), dp = at(slices.above);
+  // A blob's response falls off about as a Gaussian in the slope error (its defocus is
+  // a sum of shifted copies), so fit the parabola to log |D|: exact for a Gaussian.
+  if (dm * d0 > 0 && dp * d0 > 0) {
+    const float lm = std::log(std::abs(dm)), l0 = std::log(std::abs(d0)),
+                lp = std::log(std::abs(dp));
+    const float curvature = lm - 2.f * l0 + lp;
+    if (curvature < -1e-12f) return std::min(0.5f, std::max(-0.5f, 0.5f * (lm - lp) / curvature));
   }
-  if ((mode == 1 || mode == 2) && dm * d0 > 0 && dp * d0 > 0) {
-    const float lm = std::log(std::abs(dm)), l0 = std::log(std::abs(d0)), lp = std::log(std::abs(dp));
-    const float c = lm - 2.f * l0 + lp;
-    if (c < -1e-12f) return std::min(0.5f, std::max(-0.5f, 0.5f * (lm - lp) / c));
-  }
+  // Signs differ (or no peak in log |D|): the parabola through D itself.
   const float curvature = dm - 2.f * d0 + dp;
   if (!(std::abs(curvature) > 1e-12f)) return 0.f;
-  const float delta = 0.5f * (dm - dp) / curvature;
-  return std::min(0.5f, std::max(-0.5f, delta));
+  return std::min(0.5f, std::max(-0.5f, 0.5f * (dm - dp) / curvature));
 }
 
 bool unpackOctave(const cv::KeyPoint& keypoint, int octaves, int layers, int& o, int& layer) {

@@ -103,10 +103,15 @@ struct Refined {
 bool refine(const ScaleSpace& space, int o, const DetectParams& params, int r, int c, int layer,
             Refined& out);
 
-/// Sub-slope offset, in slope steps, of the parabola through the DoG at the refined
-/// sample in slices k - 1, k, k + 1:  delta = (D- - D+) / (2 (D- - 2 D0 + D+)),
-/// clamped to [-1/2, 1/2] so the keypoint stays nearest to its detection slice; 0 at
-/// the ends of the slope range and where the parabola is flat.
+/// Sub-slope offset, in slope steps, of the feature's response peak across slices
+/// k - 1, k, k + 1, from D-, D0, D+: each slice's DoG at the refined sub-pixel position
+/// and scale (its quadratic model). When all three share a sign, the vertex of the
+/// parabola through log |D| (a Gaussian fit: a blob's response falls off about as a
+/// Gaussian in the slope error),
+///   delta = (ln|D-| - ln|D+|) / (2 (ln|D-| - 2 ln|D0| + ln|D+|)),
+/// else that of the parabola through D, (D- - D+) / (2 (D- - 2 D0 + D+)); clamped to
+/// [-1/2, 1/2] so the keypoint stays nearest to its detection slice; 0 at the ends of
+/// a hand-set slope range and where the profile is flat. docs/SLOPES.md.
 float subSlopeOffset(const SliceNeighbourhood& slices, int o, const Refined& e);
 
 /// Unpacks cv::SIFT's keypoint octave field into (octave index o >= 0 of our

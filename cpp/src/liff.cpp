@@ -6,7 +6,11 @@
 //     describe the given keypoints (compute), or
 //     detect over a window sliding along the slopes, describing each batch while
 //     its scale spaces are held -> sort and deduplicate -> retain the best.
+#include <algorithm>
+#include <climits>
+#include <cmath>
 #include <liff/liff.hpp>
+#include <mutex>
 
 #include "descriptor.hpp"
 #include "detections.hpp"
@@ -17,11 +21,6 @@
 #include "slope_plan.hpp"
 #include "slope_range.hpp"
 
-#include <algorithm>
-#include <climits>
-#include <cmath>
-#include <mutex>
-
 namespace liff {
 
 double keypointSlope(const cv::KeyPoint& keypoint) { return keypoint.class_id / kSlopeScale; }
@@ -30,8 +29,8 @@ int slopeToClassId(double slope) {
   const double scaled = std::round(slope * kSlopeScale);
   if (!(std::abs(scaled) <= double(INT_MAX)))
     CV_Error(cv::Error::StsOutOfRange,
-             cv::format("LiFF: slope %g cannot be stored in class_id; expected |slope| < %g",
-                        slope, INT_MAX / kSlopeScale));
+             cv::format("LiFF: slope %g cannot be stored in class_id; expected |slope| < %g", slope,
+                        INT_MAX / kSlopeScale));
   return int(scaled);
 }
 
@@ -53,7 +52,9 @@ constexpr double kBytesPerMB = 1024.0 * 1024.0;
 // The one slope of a single view with an automatic range: a finite bound if one is
 // set, else 0.
 double singleViewSlope(const Parameters& p) {
-  return std::isfinite(p.firstSlope) ? p.firstSlope : std::isfinite(p.lastSlope) ? p.lastSlope : 0.0;
+  return std::isfinite(p.firstSlope)  ? p.firstSlope
+         : std::isfinite(p.lastSlope) ? p.lastSlope
+                                      : 0.0;
 }
 
 // Slices searched together: one per thread, so that building their scale spaces
@@ -104,12 +105,15 @@ class LiFF_Impl : public LiFF {
   }
   void setMemoryLimitMB(double v) override {
     require(v >= 0, cv::format("memoryLimitMB = %g; expected >= 0 (0 = automatic, "
-                               "infinity = no limit)", v));
+                               "infinity = no limit)",
+                               v));
     memoryLimitMB_ = v;
   }
   double getMemoryLimitMB() const override { return memoryLimitMB_; }
 
   std::vector<double> slopesFor(int T, int S) const override {
+    require(T >= 1 && S >= 1,
+            cv::format("T = %d, S = %d views; expected at least 1 view in each direction", T, S));
     if (detail::automaticRange(parameters_) && (T > 1 || S > 1))
       CV_Error(cv::Error::StsBadArg,
                "LiFF: slopesFor(T, S) with an automatic slope range (firstSlope = -inf or "
@@ -147,9 +151,8 @@ class LiFF_Impl : public LiFF {
     cv::FileNode fn = node;
     if (fn.isMap() && !fn[getDefaultName()].empty()) fn = fn[getDefaultName()];
     if (fn.isMap() && !fn["name"].empty() && cv::String(fn["name"]) != getDefaultName())
-      CV_Error(cv::Error::StsBadArg, "LiFF: read() found parameters of '" +
-                                         cv::String(fn["name"]) + "'; expected '" +
-                                         getDefaultName() + "'");
+      CV_Error(cv::Error::StsBadArg, "LiFF: read() found parameters of '" + cv::String(fn["name"]) +
+                                         "'; expected '" + getDefaultName() + "'");
     readParameters(fn, parameters_);
   }
 
@@ -209,8 +212,7 @@ std::vector<double> LiFF_Impl::slopesFor(cv::InputArray image) {
   const Parameters parameters = parameters_;
   const cv::Mat input = image.getMat();
   LightField lf = detail::checkLightField(input);
-  if (!detail::automaticRange(parameters) || (lf.T == 1 && lf.S == 1))
-    return slopesFor(lf.T, lf.S);
+  if (!detail::automaticRange(parameters) || (lf.T == 1 && lf.S == 1)) return slopesFor(lf.T, lf.S);
   const int octaves = detail::numOctaves(lf.viewSize());
   detail::MemoryEstimate need =
       detail::sliceMemory(lf.viewSize(), parameters.nOctaveLayers, octaves);
@@ -242,10 +244,13 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   remember(slices);
 
   const bool wantDescriptors = descriptorsOut.needed();
-  Call call{parameters, lf, slices,
+  Call call{parameters,
+            lf,
+            slices,
             detail::ScaleSpaceSettings{parameters.nOctaveLayers, parameters.sigma, octaves,
                                        !useProvidedKeypoints},
-            batch, need.slicesAhead(batch)};
+            batch,
+            need.slicesAhead(batch)};
   if (useProvidedKeypoints) {
     cv::Mat descriptors;
     detail::describeProvidedKeypoints(call, keypoints, wantDescriptors, descriptors);

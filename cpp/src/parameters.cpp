@@ -1,11 +1,10 @@
 // The ranges of the detector's parameters (Parameters::check) and their FileStorage
 // form; the parameters themselves are listed once in liff/parameters.hpp.
+#include <climits>
+#include <cmath>
 #include <liff/parameters.hpp>
 
 #include "slope_plan.hpp"
-
-#include <climits>
-#include <cmath>
 
 namespace liff {
 namespace {
@@ -17,17 +16,16 @@ void require(bool ok, const cv::String& message) {
 // A slope bound: finite within kMaxAbsSlope, or the infinity of its side (automatic).
 void checkSlope(const char* name, double v, double automatic) {
   require((std::isfinite(v) && std::abs(v) <= detail::kMaxAbsSlope) || v == automatic,
-          cv::format("%s = %g; expected %s (automatic) or a finite value in [-%g, %g]", name,
-                     v, automatic < 0 ? "-inf" : "+inf", detail::kMaxAbsSlope,
-                     detail::kMaxAbsSlope));
+          cv::format("%s = %g; expected %s (automatic) or a finite value in [-%g, %g]", name, v,
+                     automatic < 0 ? "-inf" : "+inf", detail::kMaxAbsSlope, detail::kMaxAbsSlope));
 }
 
 // A FileStorage entry as a number, or an error naming the key.
 double number(const cv::FileNode& node, const char* key) {
   if (!node.isInt() && !node.isReal())
-    CV_Error(cv::Error::StsBadArg,
-             cv::format("LiFF: read() found parameter '%s' of the wrong type; expected a number",
-                        key));
+    CV_Error(
+        cv::Error::StsBadArg,
+        cv::format("LiFF: read() found parameter '%s' of the wrong type; expected a number", key));
   return node.isInt() ? double(int(node)) : double(node);
 }
 

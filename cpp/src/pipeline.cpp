@@ -1,13 +1,12 @@
 #include "pipeline.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <liff/liff.hpp>
+
 #include "descriptor.hpp"
 #include "extrema.hpp"
 #include "profile.hpp"
-
-#include <liff/liff.hpp>
-
-#include <algorithm>
-#include <cmath>
 
 namespace liff {
 namespace detail {
@@ -92,9 +91,8 @@ void describeProvidedKeypoints(const Call& call, std::vector<cv::KeyPoint>& keyp
   std::vector<cv::KeyPoint> kept;
   for (const cv::KeyPoint& kp : keypoints) {
     int o, layer;
-    const bool usable = std::abs(kp.pt.x) < kMaxCoordinate &&
-                        std::abs(kp.pt.y) < kMaxCoordinate && kp.size > 0 &&
-                        kp.size < kMaxCoordinate && std::isfinite(kp.angle);
+    const bool usable = std::abs(kp.pt.x) < kMaxCoordinate && std::abs(kp.pt.y) < kMaxCoordinate &&
+                        kp.size > 0 && kp.size < kMaxCoordinate && std::isfinite(kp.angle);
     if (call.settings.octaves >= 1 && usable &&
         unpackOctave(kp, call.settings.octaves, call.settings.layers, o, layer))
       kept.push_back(kp);
@@ -119,8 +117,7 @@ void describeProvidedKeypoints(const Call& call, std::vector<cv::KeyPoint>& keyp
         groupSlice.push_back(sliceOf[j]);
         rows.push_back(int(j));
       }
-    cv::Mat groupDescriptors(int(group.size()), kDescriptorSize,
-                             call.parameters.descriptorType);
+    cv::Mat groupDescriptors(int(group.size()), kDescriptorSize, call.parameters.descriptorType);
     describe(group, groupSlice, window, call.parameters.rootSift, groupDescriptors);
     for (size_t j = 0; j < rows.size(); ++j)
       groupDescriptors.row(int(j)).copyTo(descriptors.row(rows[j]));
@@ -135,8 +132,7 @@ Detections detectInSlices(const Call& call, const cv::Mat& mask, bool wantDescri
   for (int k = 0; k < call.plan.size(); ++k)
     if (call.plan.searched[k]) searched.push_back(k);
   Detections all;
-  if (wantDescriptors)
-    all.descriptors.create(0, kDescriptorSize, call.parameters.descriptorType);
+  if (wantDescriptors) all.descriptors.create(0, kDescriptorSize, call.parameters.descriptorType);
   if (call.settings.octaves < 1) return all;
   SliceWindow window(call.lf, call.plan, call.settings, call.batch, call.renderAhead);
   for (size_t first = 0; first < searched.size(); first += call.batch) {
@@ -157,8 +153,7 @@ Detections detectInSlices(const Call& call, const cv::Mat& mask, bool wantDescri
     all.keypoints.insert(all.keypoints.end(), keypoints.begin(), keypoints.end());
     if (wantDescriptors && !keypoints.empty()) {
       // Each keypoint's nearest slice is within one of its detection slice: held.
-      cv::Mat block(int(keypoints.size()), kDescriptorSize,
-                    call.parameters.descriptorType);
+      cv::Mat block(int(keypoints.size()), kDescriptorSize, call.parameters.descriptorType);
       describe(keypoints, nearestSlices(call.plan, keypoints), window, call.parameters.rootSift,
                block);
       all.descriptors.push_back(block);

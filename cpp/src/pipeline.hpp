@@ -3,16 +3,14 @@
 // automatic slope range runs on a decimated light field.
 #pragma once
 
+#include <liff/parameters.hpp>
+#include <opencv2/core.hpp>
+#include <vector>
+
 #include "detections.hpp"
 #include "light_field.hpp"
 #include "slice_window.hpp"
 #include "slope_plan.hpp"
-
-#include <liff/parameters.hpp>
-
-#include <opencv2/core.hpp>
-
-#include <vector>
 
 namespace liff {
 namespace detail {

@@ -1,8 +1,8 @@
 #include "slice_window.hpp"
 
-#include "profile.hpp"
-
 #include <algorithm>
+
+#include "profile.hpp"
 
 namespace liff {
 namespace detail {
@@ -51,8 +51,7 @@ void SliceWindow::build(const std::vector<int>& which) {
     std::shared_ptr<ScaleSpace> space = pool_.takeSpace();
     const cv::Vec2d variance = interpolationVariance(lf_.T, lf_.S, plan_.slopes[which[j]]);
     buildScaleSpace(slices[j], settings_.layers, settings_.sigma, settings_.octaves, variance,
-                    plan_.blurTarget, settings_.detectionOnly, rowParallel, *space,
-                    scratch.get());
+                    plan_.blurTarget, settings_.detectionOnly, rowParallel, *space, scratch.get());
     slices[j].release();
     pool_.giveScratch(std::move(scratch));
     return space;
@@ -63,9 +62,12 @@ void SliceWindow::build(const std::vector<int>& which) {
   const int threads = std::max(1, std::min(cv::getNumThreads(), batch_));
   const int parallelCount = threads > 1 ? n - n % threads : 0;
   std::vector<std::shared_ptr<ScaleSpace>> built(n);
-  cv::parallel_for_(cv::Range(0, parallelCount), [&](const cv::Range& range) {
-    for (int j = range.start; j < range.end; ++j) built[j] = buildOne(j, false);
-  }, threads);  // `threads` stripes: no more than that many built at once
+  cv::parallel_for_(
+      cv::Range(0, parallelCount),
+      [&](const cv::Range& range) {
+        for (int j = range.start; j < range.end; ++j) built[j] = buildOne(j, false);
+      },
+      threads);  // `threads` stripes: no more than that many built at once
   for (int j = parallelCount; j < n; ++j) built[j] = buildOne(j, true);
   for (int j = 0; j < n; ++j) spaces_[which[j]] = built[j];
 }

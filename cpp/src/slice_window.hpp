@@ -2,23 +2,23 @@
 // along the slope axis, so memory stays bounded whatever the number of slopes.
 #pragma once
 
+#include <map>
+#include <memory>
+#include <vector>
+
 #include "focal_stack.hpp"
 #include "light_field.hpp"
 #include "scale_space.hpp"
 #include "slope_plan.hpp"
-
-#include <map>
-#include <memory>
-#include <vector>
 
 namespace liff {
 namespace detail {
 
 /// How each slice's scale space is built.
 struct ScaleSpaceSettings {
-  int layers;     // nOctaveLayers
-  double sigma;   // base octave's sigma
-  int octaves;    // numOctaves(view size)
+  int layers;          // nOctaveLayers
+  double sigma;        // base octave's sigma
+  int octaves;         // numOctaves(view size)
   bool detectionOnly;  // drop the Gaussians no detected keypoint can use
 };
 

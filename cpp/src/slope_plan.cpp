@@ -1,9 +1,9 @@
 #include "slope_plan.hpp"
 
-#include "focal_stack.hpp"
-
 #include <algorithm>
 #include <cmath>
+
+#include "focal_stack.hpp"
 
 namespace liff {
 namespace detail {
@@ -37,7 +37,8 @@ void setBlurTarget(SlopePlan& plan, int T, int S, bool wholeGrid) {
   plan.blurTarget = cv::Vec2d(0, 0);
   for (double slope : slopes) {
     const cv::Vec2d v = interpolationVariance(T, S, slope);
-    plan.blurTarget = cv::Vec2d(std::max(plan.blurTarget[0], v[0]), std::max(plan.blurTarget[1], v[1]));
+    plan.blurTarget =
+        cv::Vec2d(std::max(plan.blurTarget[0], v[0]), std::max(plan.blurTarget[1], v[1]));
   }
 }
 
@@ -77,13 +78,14 @@ SlopePlan uniformPlan(const Parameters& p, int T, int S) {
       require(odd <= kMaxSlopes,
               cv::format("numSlopes = 0 would use %.0f slopes for [%g, %g] and %d x %d views; "
                          "expected at most %d: check the axis order (T, S, V, U), narrow the "
-                         "range or set numSlopes", odd, p.firstSlope, p.lastSlope, T, S,
-                         kMaxSlopes));
+                         "range or set numSlopes",
+                         odd, p.firstSlope, p.lastSlope, T, S, kMaxSlopes));
       n = int(odd);
     }
     require(n == 1 || p.firstSlope < p.lastSlope,
             cv::format("firstSlope = lastSlope = %g with numSlopes = %d; expected "
-                       "firstSlope < lastSlope, or numSlopes = 1", p.firstSlope, n));
+                       "firstSlope < lastSlope, or numSlopes = 1",
+                       p.firstSlope, n));
   }
   SlopePlan plan;
   plan.slopes = slopeGrid(p.firstSlope, p.lastSlope, n);

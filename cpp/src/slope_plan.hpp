@@ -3,7 +3,6 @@
 #pragma once
 
 #include <liff/parameters.hpp>
-
 #include <vector>
 
 namespace liff {

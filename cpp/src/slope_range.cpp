@@ -1,19 +1,15 @@
 #include "slope_range.hpp"
 
-#include "focal_stack.hpp"
-#include "pipeline.hpp"
-#include "scale_space.hpp"
-
-#include <liff/liff.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <liff/liff.hpp>
 #include <map>
 #include <set>
-#include <cstdio>
-#include <cstdlib>
-#include <ctime>
+
+#include "focal_stack.hpp"
+#include "pipeline.hpp"
+#include "scale_space.hpp"
 
 namespace liff {
 namespace detail {
@@ -22,18 +18,23 @@ namespace {
 /// Coarsest decimation of the survey, and the one it ends at when views allow.
 constexpr int kCoarsestDecimation = 16;
 constexpr int kFinestDecimation = 4;
-/// A surveyed level needs views of at least this many pixels on the smaller side.
-constexpr int kSmallestSurveyView = 16;
-/// The survey detects with this fraction of the contrast threshold: its DoG is
-/// coarser than the features it stands for, whose full-resolution contrast is higher.
-const double kSurveyContrastFactor = std::getenv("LIFF_SCF") ? std::atof(std::getenv("LIFF_SCF")) : 1.0;
+/// The coarsest level needs views of at least this many pixels on the smaller side...
+constexpr int kCoarsestSurveyView = 32;
+/// ...and the finest keeps this many where it can (at most kFinestDecimation times
+/// smaller than the light field), so that small structure stays visible to it.
+constexpr int kFinestSurveyView = 64;
 /// A finer level searches within this many of the coarser level's spacings of its slopes.
-const double kCandidateReach = std::getenv("LIFF_REACH") ? std::atof(std::getenv("LIFF_REACH")) : 1.0;
-/// Features whose views add up less coherently than this are ghosts or noise.
-constexpr double kMinCoherence = 0.5;
+constexpr double kCandidateReach = 1.0;
+/// Features whose views add up less coherently than minCoherence(n) are ghosts or noise:
+/// halfway between 1 and the coherence chance gives an extremum of noise or texture
+/// among n views, z^2 / (n + z^2) for a z = 5 sigma extreme.
+double minCoherence(int views) { return 0.5 * (1 + 25.0 / (views + 25.0)); }
 /// A slope searched over the whole range counts when it holds more than this many
 /// times the median number of features per slope.
-const double kDensityFactor = std::getenv("LIFF_DF") ? std::atof(std::getenv("LIFF_DF")) : 3.0;
+constexpr double kDensityFactor = 3.0;
+/// A surveyed slope is within this share of its level's spacing of the feature's own
+/// (the sub-slice fit's error; docs/SLOPES.md).
+constexpr double kSurveyUncertainty = 0.25;
 /// The paper's rule of thumb, the range used when the survey finds nothing.
 constexpr double kPaperRange = 1.0;
 
@@ -96,19 +97,12 @@ std::vector<double> surveyLevel(const LightField& small, int factor, const std::
                                 double step, const Parameters& p, int batch) {
   SlopePlan plan = guardedPlan(searched, step / factor, small.T, small.S);
   Parameters survey = p;
-  survey.contrastThreshold *= kSurveyContrastFactor;
-  if (std::getenv("LIFF_SL")) {  // DoG layers of the survey's scale spaces
-    const int layers = std::atoi(std::getenv("LIFF_SL"));
-    survey.contrastThreshold *= double(layers) / p.nOctaveLayers;
-    survey.nOctaveLayers = layers;
-  }
   survey.nfeatures = 0;
   const int octaves = numOctaves(small.viewSize());
-  const Call call{survey, small, plan, ScaleSpaceSettings{survey.nOctaveLayers, p.sigma, octaves, true},
-                  batch, std::max(kSlicesPerPass, batch + 1)};
-  const std::clock_t c0 = std::clock();
+  const Call call{survey, small,
+                  plan,   ScaleSpaceSettings{survey.nOctaveLayers, p.sigma, octaves, true},
+                  batch,  std::max(kSlicesPerPass, batch + 1)};
   const Detections found = detectInSlices(call, cv::Mat(), false);
-  const std::clock_t c1 = std::clock();
   // One coherence test per extremum (its orientations share position, size and slope).
   std::vector<cv::KeyPoint> unique;
   for (const cv::KeyPoint& kp : found.keypoints)
@@ -118,18 +112,20 @@ std::vector<double> surveyLevel(const LightField& small, int factor, const std::
   std::vector<double> coherence(unique.size());
   cv::parallel_for_(cv::Range(0, int(unique.size())), [&](const cv::Range& range) {
     for (int i = range.start; i < range.end; ++i)
-      coherence[i] = viewCoherence(small, unique[i], keypointSlope(unique[i]), survey.nOctaveLayers);
+      coherence[i] =
+          viewCoherence(small, unique[i], keypointSlope(unique[i]), survey.nOctaveLayers);
   });
   std::vector<double> slopes;
   for (size_t i = 0; i < unique.size(); ++i)
-    if (coherence[i] >= kMinCoherence) slopes.push_back(keypointSlope(unique[i]) * factor);
-  if (std::getenv("LIFF_DEBUG_SURVEY"))
-    std::fprintf(stderr, "  detect %.3f s cpu, coherence of %zu: %.3f s cpu\n", double(c1 - c0) / CLOCKS_PER_SEC, unique.size(), double(std::clock() - c1) / CLOCKS_PER_SEC);
+    if (coherence[i] >= minCoherence(small.T * small.S))
+      slopes.push_back(keypointSlope(unique[i]) * factor);
   return slopes;
 }
 
-// Bilinear sample of one view row block at (x, y); the caller keeps it inside.
-float sample(const float* view, int U, float x, float y) {
+// Bilinear sample of a V x U view at (x, y), clamped to the view (border replicated).
+float sample(const float* view, int U, int V, float x, float y) {
+  x = std::min(std::max(x, 0.f), U - 1.001f);
+  y = std::min(std::max(y, 0.f), V - 1.001f);
   const int x0 = int(x), y0 = int(y);
   const float fx = x - x0, fy = y - y0;
   const float* r0 = view + size_t(y0) * U + x0;
@@ -146,8 +142,7 @@ double sliceSpacing(int T, int S) {
 
 double largestSlope(int T, int S, int V, int U) {
   const int n = std::max(T, S);
-  const double k = std::getenv("LIFF_KR") ? std::atof(std::getenv("LIFF_KR")) : 4.0;
-  return n > 1 ? std::min(V, U) / (k * (n - 1)) : 0.0;
+  return n > 1 ? std::min(V, U) / (4.0 * (n - 1)) : 0.0;
 }
 
 double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope, int layers) {
@@ -157,7 +152,6 @@ double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope,
   const float k = std::pow(2.f, 1.f / layers), wide = k * sigma;
   const float stepQ = std::max(1.f, sigma);
   const int reach = int(std::ceil(3 * wide / stepQ));
-  const float radius = reach * stepQ;
   std::vector<float> weights;
   std::vector<cv::Point2f> offsets;
   for (int i = -reach; i <= reach; ++i)
@@ -174,17 +168,18 @@ double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope,
   for (int t = 0; t < lf.T; ++t)
     for (int s = 0; s < lf.S; ++s) {
       const float x = float(kp.pt.x - slope * (s - sc)), y = float(kp.pt.y - slope * (t - tc));
-      if (x - radius < 0 || y - radius < 0 || x + radius > lf.U - 1.001f ||
-          y + radius > lf.V - 1.001f)
-        continue;
+      // A view whose patch centre falls outside it does not see the feature; patches that
+      // reach past a border sample the replicated border.
+      if (x < 0 || y < 0 || x > lf.U - 1 || y > lf.V - 1) continue;
       const float* view = lf.view(t, s);
-      const float* alpha = lf.weights.empty() ? nullptr : lf.weights.ptr<float>((t * lf.S + s) * lf.V);
+      const float* alpha =
+          lf.weights.empty() ? nullptr : lf.weights.ptr<float>((t * lf.S + s) * lf.V);
       double b = 0, a = 0, total = 0;
       for (size_t q = 0; q < weights.size(); ++q) {
         const float qx = x + offsets[q].x, qy = y + offsets[q].y;
-        b += weights[q] * sample(view, lf.U, qx, qy);
+        b += weights[q] * sample(view, lf.U, lf.V, qx, qy);
         if (alpha) {
-          a += std::abs(weights[q]) * sample(alpha, lf.U, qx, qy);
+          a += std::abs(weights[q]) * sample(alpha, lf.U, lf.V, qx, qy);
           total += std::abs(weights[q]);
         }
       }
@@ -220,23 +215,17 @@ std::vector<double> dense(const std::vector<double>& found, const std::set<long>
   return kept;
 }
 
-static double knob(const char* name, double value) {
-  const char* v = std::getenv(name);
-  return v ? std::atof(v) : value;
-}
-
 SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, double hi,
                          int batch) {
   SlopeSurvey survey;
   const double unit = sliceSpacing(lf.T, lf.S);
   const double reach = largestSlope(lf.T, lf.S, lf.V, lf.U);
   const int side = std::min(lf.V, lf.U);
-  const int smallest = int(knob("LIFF_SV", 32));
-  int finest = 4;
-  while (finest > 1 && side / finest < 32) finest /= 2;
-  if (finest < 2) return survey;  // views too small to survey
+  int finest = kFinestDecimation;
+  while (finest > 2 && side / finest < kFinestSurveyView) finest /= 2;
+  if (side / finest < kCoarsestSurveyView) return survey;  // views too small to survey
   int factor = finest;
-  while (factor < kCoarsestDecimation && side / (factor * 2) >= smallest) factor *= 2;
+  while (factor < kCoarsestDecimation && side / (factor * 2) >= kCoarsestSurveyView) factor *= 2;
   // The levels' light fields, finest first, each from the last (one pass over the
   // full light field in all).
   std::vector<LightField> levels{decimate(lf, finest)};
@@ -246,15 +235,10 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
   for (int level = int(levels.size()) - 1; level >= 0; --level, factor /= 2) {
     // One pixel of parallax at the outermost view, at the resolution the level's scale
     // space starts from (its first octave doubles the decimated views).
-    const double step = unit * factor / 2 * (coarsest ? knob("LIFF_CSS", 1) : 1);
+    const double step = unit * factor / 2;
     const std::set<long> positions = positionsIn(candidates, step, lo, hi);
     const std::vector<double> found = surveyLevel(levels[level], factor, positions, step, p, batch);
     ++survey.levels;
-    if (std::getenv("LIFF_DEBUG_SURVEY")) {
-      double mn = 1e9, mx = -1e9;
-      for (double m : found) { mn = std::min(mn, m); mx = std::max(mx, m); }
-      std::fprintf(stderr, "survey f=%d step=%.3f searched=%zu coherent=%zu (%.2f..%.2f)\n", factor, step, positions.size(), found.size(), mn, mx);
-    }
     // Where a level searched every slope, keep only slopes with clearly more features
     // than the typical slope: with few views, textures make random extrema at every
     // wrong slope (a few per slope), structure makes many at its own.
@@ -267,7 +251,8 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
     // searches the same slopes.
     if (kept.empty()) continue;
     std::vector<std::pair<double, double>> spans;
-    for (double m : kept) spans.emplace_back(m - kCandidateReach * step, m + kCandidateReach * step);
+    for (double m : kept)
+      spans.emplace_back(m - kCandidateReach * step, m + kCandidateReach * step);
     candidates = merged(spans);
   }
   return survey;
@@ -293,17 +278,41 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
   } else {
     // A surveyed slope m stands for features within the level's half spacing of it;
     // the slices that could hold their extrema lie within half a slice spacing more.
-    const double reach = 0.5 * unit + (std::getenv("LIFF_PM") ? std::atof(std::getenv("LIFF_PM")) : 0.25) * survey.spacing;
+    const double reach = 0.5 * unit + kSurveyUncertainty * survey.spacing;
+    std::vector<double> slopes = survey.slopes;
+    std::sort(slopes.begin(), slopes.end());
     std::vector<std::pair<double, double>> spans;
-    for (double m : survey.slopes) spans.emplace_back(m - reach, m + reach);
+    for (size_t i = 0; i < slopes.size(); ++i) {
+      // A lone surveyed feature, with no other within twice the reach, does not claim
+      // slices by itself (one weak survey extremum is as often a fluke).
+      const bool supported = (i > 0 && slopes[i] - slopes[i - 1] <= 2 * reach) ||
+                             (i + 1 < slopes.size() && slopes[i + 1] - slopes[i] <= 2 * reach);
+      if (supported || slopes.size() == 1) spans.emplace_back(slopes[i] - reach, slopes[i] + reach);
+    }
     occupied = merged(spans);
   }
   const std::set<long> searched = positionsIn(occupied, unit, lo, hi);
-  if (p.numSlopes == 0 || searched.empty()) return guardedPlan(searched, unit, lf.T, lf.S);
+  if (p.numSlopes == 0 || searched.empty()) {
+    // No guard beyond a finite bound: a slice at the bound skips that side, as the
+    // ends of a hand-set range do, so no slope is reported beyond it.
+    SlopePlan plan = guardedPlan(searched, unit, lf.T, lf.S), inside;
+    inside = plan;
+    inside.slopes.clear();
+    inside.grid.clear();
+    inside.searched.clear();
+    for (int k = 0; k < plan.size(); ++k)
+      if (plan.slopes[k] >= lo - 1e-9 && plan.slopes[k] <= hi + 1e-9) {
+        inside.slopes.push_back(plan.slopes[k]);
+        inside.grid.push_back(plan.grid[k]);
+        inside.searched.push_back(plan.searched[k]);
+      }
+    return inside;
+  }
+  // numSlopes slices evenly over the slopes the searched slices stand for: each covers
+  // half a spacing on either side.
   Parameters uniform = p;
-  uniform.firstSlope = double(*searched.begin()) * unit;
-  uniform.lastSlope = double(*searched.rbegin()) * unit;
-  if (uniform.firstSlope == uniform.lastSlope) uniform.numSlopes = 1;
+  uniform.firstSlope = std::max(lo, (double(*searched.begin()) - 0.5) * unit);
+  uniform.lastSlope = std::min(hi, (double(*searched.rbegin()) + 0.5) * unit);
   return uniformPlan(uniform, lf.T, lf.S);
 }
 

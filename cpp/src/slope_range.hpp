@@ -2,15 +2,13 @@
 // pixels by a coarse-to-fine pre-pass (docs/SLOPES.md has the method and its maths).
 #pragma once
 
-#include "light_field.hpp"
-#include "slope_plan.hpp"
-
 #include <liff/parameters.hpp>
-
 #include <opencv2/core.hpp>
-
 #include <utility>
 #include <vector>
+
+#include "light_field.hpp"
+#include "slope_plan.hpp"
 
 namespace liff {
 namespace detail {
@@ -28,11 +26,11 @@ double largestSlope(int T, int S, int V, int U);
 /// DoG response (at the keypoint's scale) of view v sampled where the keypoint's
 /// slope puts it, kappa = (sum_v b_v)^2 / (n sum_v b_v^2), in [0, 1]. A real feature
 /// seen alike by the views gives about 1; a ghost (one view's copy of a feature that
-/// lies at another slope) or noise about 1 / n. Views whose patch leaves the view,
-/// or (with alpha) is mostly invalid, are left out; -1 when fewer than half remain.
+/// lies at another slope) or noise about 1 / n. Views the keypoint falls outside of, or
+/// (with alpha) whose patch is mostly invalid, are left out (patches reaching past a
+/// border sample the replicated border); -1 when fewer than half remain.
 /// `keypoint` is in `lf`'s pixels and its slope in `lf`'s pixels per view step.
-double viewCoherence(const LightField& lf, const cv::KeyPoint& keypoint, double slope,
-                     int layers);
+double viewCoherence(const LightField& lf, const cv::KeyPoint& keypoint, double slope, int layers);
 
 /// What the pre-pass found: the slopes of the coherent features of its finest level
 /// (full-resolution pixels per view step) and that level's slice spacing.

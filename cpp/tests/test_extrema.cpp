@@ -153,7 +153,7 @@ TEST(Refinement, RejectsEdgesBeyondTheCurvatureRatioAndSaddles) {
   EXPECT_FALSE(liff::detail::refine(cross, 0, lenient, 16, 16, 2, e));
 }
 
-// --- Sub-slope parabola -----------------------------------------------------------------------
+// --- Sub-slope fit -----------------------------------------------------------------------------
 
 // Slices k - 1, k, k + 1 whose DoG is `values` (below, here, above) everywhere.
 struct ThreeSlices {
@@ -181,19 +181,37 @@ cv::Vec3d parabola(double a, double c, double vertex) {
   return cv::Vec3d(at(-1), at(0), at(1));
 }
 
-TEST(SubSlope, OffsetIsTheVertexOfTheParabolaThroughTheThreeSlices) {
+// D(k) = c exp(-a (k - k*)^2) sampled at k = -1, 0, 1: a blob's response in slope.
+cv::Vec3d gaussian(double a, double c, double vertex) {
+  auto at = [&](double k) { return c * std::exp(-a * (k - vertex) * (k - vertex)); };
+  return cv::Vec3d(at(-1), at(0), at(1));
+}
+
+TEST(SubSlope, OffsetIsTheVertexOfAGaussianThroughTheThreeSlices) {
   for (double vertex : {-0.5, -0.3, 0.0, 0.125, 0.45})
-    for (double a : {0.004, -0.004}) {  // a maximum and a minimum in slope
-      const ThreeSlices slices(parabola(a, 0.05 * (a > 0 ? 1 : -1), vertex));
-      EXPECT_NEAR(liff::detail::subSlopeOffset(slices.neighbourhood(), 0, kCentreSample),
-                  vertex, 1e-5)
-          << "a = " << a;
-    }
+    for (double a : {0.1, 1.0, 4.0})  // broad to sharp, where a parabola in D is far off
+      for (double c : {0.05, -0.05}) {  // a maximum and a minimum of D
+        const ThreeSlices slices(gaussian(a, c, vertex));
+        EXPECT_NEAR(liff::detail::subSlopeOffset(slices.neighbourhood(), 0, kCentreSample),
+                    vertex, 1e-4)
+            << "a = " << a << ", c = " << c;
+      }
+}
+
+TEST(SubSlope, WhereSignsDifferTheParabolaThroughDGivesTheVertex) {
+  for (double vertex : {-0.3, 0.0, 0.2}) {
+    // c - a (k - k*)^2 crossing zero within the three slices
+    const ThreeSlices slices(parabola(0.05, 0.03, vertex));
+    const cv::Vec3d d = parabola(0.05, 0.03, vertex);
+    ASSERT_TRUE(d[0] * d[1] < 0 || d[2] * d[1] < 0);
+    EXPECT_NEAR(liff::detail::subSlopeOffset(slices.neighbourhood(), 0, kCentreSample), vertex,
+                1e-5);
+  }
 }
 
 TEST(SubSlope, VertexBeyondHalfAStepIsClampedToHalfAStep) {
   for (double vertex : {0.8, -1.2}) {
-    const ThreeSlices slices(parabola(0.004, 0.05, vertex));
+    const ThreeSlices slices(gaussian(1.0, 0.05, vertex));
     EXPECT_EQ(liff::detail::subSlopeOffset(slices.neighbourhood(), 0, kCentreSample),
               vertex > 0 ? 0.5f : -0.5f);
   }
@@ -302,8 +320,8 @@ TEST(EightyNeighbours, FirstAndLastSlicesSkipTheMissingSide) {
 
 // Slices at slopes 0, 0.5, 1 whose DoGs are one concave quadratic, lowered by 0.004 in
 // the slice below and by 0.002 in the slice above: the middle slice's peak beats all 80
-// neighbours, and the parabola through the three slices peaks at
-//   (D- - D+) / (2 (D- - 2 D0 + D+)) = (-0.004 + 0.002) / (2 (-0.006)) = 1/6 step.
+// neighbours, and the Gaussian through the three slices' values at the peak (P - 0.004,
+// P, P - 0.002) peaks at (ln D- - ln D+) / (2 (ln D- - 2 ln D0 + ln D+)) steps.
 struct Scene {
   static constexpr double kSlope = 0.5, kStep = 0.5, kBelow = 0.004, kAbove = 0.002;
   Quadratic q{kCentres[0], cv::Matx33d(-0.01, 0, 0, 0, -0.01, 0, 0, 0, -0.01), kPeak};
@@ -337,7 +355,9 @@ TEST(FindKeypoints, ExtremumBeatingAll80NeighboursIsFoundAtItsRefinedPositionAnd
   const cv::Vec3d p = scene.q.centre;
   // Octave 0 is the 2x upsampled view: octave pixel X is view pixel X / 2 - 1/4.
   const cv::Point2f view(float(p[0] / 2 - 0.25), float(p[1] / 2 - 0.25));
-  const double subSlope = (-Scene::kBelow + Scene::kAbove) / (2 * (-Scene::kBelow - Scene::kAbove));
+  const double lm = std::log(kPeak - Scene::kBelow), l0 = std::log(kPeak),
+               lp = std::log(kPeak - Scene::kAbove);
+  const double subSlope = (lm - lp) / (2 * (lm - 2 * l0 + lp));
   struct Case {
     bool below, above;
     double slope;

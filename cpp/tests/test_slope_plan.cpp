@@ -1,11 +1,11 @@
 // The slope plan (slope_plan.hpp): the slope grid, the uniform plan of explicit
 // parameters, and the slice a keypoint is described on.
-#include "slope_plan.hpp"
-
 #include <gtest/gtest.h>
 
 #include <array>
 #include <vector>
+
+#include "slope_plan.hpp"
 
 namespace {
 
@@ -38,7 +38,8 @@ TEST(UniformPlan, DefaultCountIsTheSmallestOddNumberOfAtLeastTheViews) {
   liff::Parameters p;
   p.firstSlope = -1;
   p.lastSlope = 1;
-  for (auto [T, S, n] : std::vector<std::array<int, 3>>{{9, 9, 9}, {4, 4, 5}, {1, 7, 7}, {3, 8, 9}}) {
+  for (auto [T, S, n] :
+       std::vector<std::array<int, 3>>{{9, 9, 9}, {4, 4, 5}, {1, 7, 7}, {3, 8, 9}}) {
     const SlopePlan plan = liff::detail::uniformPlan(p, T, S);
     EXPECT_EQ(plan.size(), n) << T << " x " << S;
     EXPECT_EQ(plan.slopes.front(), -1.0);
@@ -58,8 +59,8 @@ TEST(SlopePlan, NearestIsTheClosestSliceOnTheGridAndSkipsGaps) {
   EXPECT_EQ(plan.nearest(0.3), 1);
   EXPECT_EQ(plan.nearest(-5), 0);
   EXPECT_EQ(plan.nearest(9), 4);
-  EXPECT_EQ(plan.nearest(0.8), 2);   // grid position 3: nearest present is 2
-  EXPECT_EQ(plan.nearest(1.3), 3);   // position 5: nearest present is 6
+  EXPECT_EQ(plan.nearest(0.8), 2);  // grid position 3: nearest present is 2
+  EXPECT_EQ(plan.nearest(1.3), 3);  // position 5: nearest present is 6
   EXPECT_TRUE(plan.adjacent(0));
   EXPECT_FALSE(plan.adjacent(2));
 }

@@ -9,7 +9,7 @@ disparity) is in ``class_id`` and read with :func:`keypoint_slopes`.
 
 from ._core import getNumThreads, opencvVersion, setNumThreads
 from ._detector import PARAMETERS, LiFF, LiFF_create
-from ._warnings import IntensityWarning, LensletSizeWarning, LiffWarning
+from ._warnings import IntensityWarning, LensletSizeWarning, LiffWarning, SlopeRangeWarning
 from .keypoint_rows import SLOPE_SCALE, keypoint_slopes
 
 __all__ = [
@@ -20,6 +20,7 @@ __all__ = [
     "LiffWarning",
     "PARAMETERS",
     "SLOPE_SCALE",
+    "SlopeRangeWarning",
     "keypoint_slopes",
     "setNumThreads",
     "getNumThreads",

@@ -3,15 +3,21 @@
 from __future__ import annotations
 
 import inspect
+import math
 import os
 import textwrap
+import warnings
 from typing import List, NamedTuple, Optional, Tuple, Union
 
 import cv2
 import numpy as np
 
 from . import _core
-from .keypoint_rows import KeyPoints, keypoints_to_rows, rows_to_keypoints
+from ._warnings import SlopeRangeWarning
+from .keypoint_rows import SLOPE_SCALE, KeyPoints, keypoints_to_rows, rows_to_keypoints
+
+RANGE_END_SHARE = 0.05
+"""A hand-set slope range warns when more than this share of features sit at its ends."""
 
 
 class Parameter(NamedTuple):
@@ -170,7 +176,9 @@ class LiFF(_core.LiFF):
             ``response`` the |DoG| contrast, ``octave`` packed as cv2.SIFT, slope in
             ``class_id`` (see :func:`keypoint_slopes`).
         """
-        rows, _ = self._run(_as_light_field(lf), _as_mask(mask), None, False)
+        array = _as_light_field(lf)
+        rows, _ = self._run(array, _as_mask(mask), None, False)
+        self._check_range_ends(array, rows)
         return rows_to_keypoints(rows)
 
     def compute(self, lf, keypoints, descriptors=None) -> Tuple[KeyPoints, Optional[np.ndarray]]:
@@ -206,8 +214,41 @@ class LiFF(_core.LiFF):
         """
         if useProvidedKeypoints:
             raise ValueError("useProvidedKeypoints=True: call compute(lf, keypoints) instead")
-        rows, desc = self._run(_as_light_field(lf), _as_mask(mask), None, True)
+        array = _as_light_field(lf)
+        rows, desc = self._run(array, _as_mask(mask), None, True)
+        self._check_range_ends(array, rows)
         return rows_to_keypoints(rows), (desc if len(rows) else None)
+
+    def _check_range_ends(self, lf: np.ndarray, rows: np.ndarray) -> None:
+        """Warns (SlopeRangeWarning) when more than RANGE_END_SHARE of the features sit
+        at an end of a hand-set slope range and the automatic survey (docs/SLOPES.md)
+        finds structure beyond that end: their slopes are pinned there. Features at an
+        end the scene itself ends at are not warned about."""
+        first, last = self.getFirstSlope(), self.getLastSlope()
+        searched = self.getSearchedSlopes()
+        if not (math.isfinite(first) and math.isfinite(last)) or len(searched) < 2 or not len(rows):
+            return
+        slopes = rows[:, 6] / SLOPE_SCALE
+        tol = 1.0 / SLOPE_SCALE
+        low = int(np.sum(np.abs(slopes - searched[0]) <= tol))
+        high = int(np.sum(np.abs(slopes - searched[-1]) <= tol))
+        if low + high <= RANGE_END_SHARE * len(rows):
+            return
+        surveyed = self._survey(lf)  # slopes of the features the automatic survey finds
+        found = (min(surveyed), max(surveyed)) if surveyed else None
+        # beyond: nearer a slice past the end than the end slice itself
+        half = (searched[1] - searched[0]) / 2
+        beyond = found is not None and ((low and found[0] < first - half) or
+                                        (high and found[1] > last + half))
+        if not beyond:
+            return
+        lo, hi = min(first, found[0]), max(last, found[1])
+        warnings.warn(f"{low + high} of {len(rows)} features ({100 * (low + high) / len(rows):.0f}%) "
+                      f"sit at an end of the slope range [{first:g}, {last:g}] and the light "
+                      f"field has structure beyond it (slopes {found[0]:.2f} to {found[1]:.2f}), "
+                      f"whose features are reported at the end; try firstSlope={lo:.2f}, "
+                      f"lastSlope={hi:.2f}, or the automatic range (firstSlope=-inf, "
+                      f"lastSlope=+inf, the default)", SlopeRangeWarning, stacklevel=3)
 
     # --- persistence, as cv2.Feature2D -----------------------------------------
     def save(self, filename: Union[str, os.PathLike]) -> None:

@@ -14,3 +14,9 @@ class IntensityWarning(LiffWarning):
 class LensletSizeWarning(LiffWarning):
     """An ESLF image's detected lenslet size disagrees with one of the cues
     (:func:`liff.io.detect_lenslet_size`)."""
+
+
+class SlopeRangeWarning(LiffWarning):
+    """More than 5% of the features sit at an end of a hand-set slope range, so the
+    slopes of structure beyond it are pinned there; the message names the range the
+    automatic survey finds (docs/SLOPES.md)."""

@@ -61,15 +61,17 @@ def run_demo(out_dir: str, noise_variance: float = 1e-3) -> int:
     # cv2.SIFT's first-octave positions sit 0.25 px right/below; LiFF corrects that.
     sift_keypoints = [cv2.KeyPoint(k.pt[0] - 0.25, k.pt[1] - 0.25, k.size) for k in sift_keypoints]
     sift_match = match_to_truth(sift_keypoints, blobs)
-    picture = draw_keypoints_by_slope(centre, keypoints, slope_range=(-1.0, 1.0))
+    used = detector.getSlicesUsed()
+    picture = draw_keypoints_by_slope(centre, keypoints, slope_range=(used[0], used[-1]))
     path = os.path.join(out_dir, "features.png")
     cv2.imwrite(path, picture)
 
     print(f"light field: {T}x{S} views of {V}x{U} pixels, noise variance {noise_variance:g}, "
           f"{len(blobs)} blobs at slopes {', '.join(f'{s:+.1f}' for s in DEMO_SLOPES)} "
           f"behind a partial occluder")
-    print(f"LiFF: {len(keypoints)} features in {elapsed:.2f} s, slopes "
-          f"{', '.join(f'{s:+.2f}' for s in detector.slopesFor(T, S))}")
+    searched = detector.getSearchedSlopes()
+    print(f"LiFF: {len(keypoints)} features in {elapsed:.2f} s, {len(searched)} slopes searched "
+          f"(automatic): {', '.join(f'{s:+.2f}' for s in searched)}")
     print(f"  blobs found (within 1.5 px): {match.found.sum()}/{len(blobs)}, spurious features "
           f"(> 3 px from any blob): {match.spurious}")
     print(f"  cv2.SIFT on the centre view: {sift_match.found.sum()}/{len(blobs)} found, "

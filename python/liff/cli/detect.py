@@ -59,7 +59,8 @@ def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
     view = centre_view(light_field)
     save_features(out, Features(tuple(keypoints), descriptors, view, meta))
     if plot:
-        slope_range = (parameters["firstSlope"], parameters["lastSlope"])
+        used = detector.getSlicesUsed()  # the range the detector searched
+        slope_range = (used[0], used[-1]) if len(used) > 1 else None
         write_image(plot, draw_keypoints_by_slope(view, keypoints, slope_range))
     return len(keypoints)
 

@@ -24,6 +24,10 @@ from ._shared import positive_int
 UINT16_LOW = 1 << 14
 #: floats up to this are taken to be in [0, 1] (rounding may overshoot 1 a little)
 FLOAT_HIGH = 1.01
+#: floats beyond [0, FLOAT_HIGH] are on another scale only when the centre view's median
+#: is too: sensor noise and highlights push [0, 1] data past its ends, 0..255 data sits
+#: far beyond
+FLOAT_MEDIAN_HIGH = 1.0
 #: floats whose largest value is below this use at most 1/16 of [0, 1]
 FLOAT_LOW = 1 / 16
 #: views sampled by :func:`intensity_range` on each view axis (plus the centre view)
@@ -73,6 +77,18 @@ def intensity_range(light_field: np.ndarray) -> Tuple[float, float]:
     return low, high
 
 
+def _off_scale(array: np.ndarray) -> bool:
+    """Whether the centre view (its weight channel left out) sits on another scale than
+    [0, 1]: its median above FLOAT_MEDIAN_HIGH, or a quarter of it negative. Noise and
+    highlights push [0, 1] data past its ends without moving these."""
+    view = array if array.ndim in (2, 3) else array[array.shape[0] // 2, array.shape[1] // 2]
+    channels, weighted = _channels(array)
+    if weighted:
+        view = view[..., :channels - 1]
+    quarter, median = np.percentile(view, [25, 50])
+    return bool(median > FLOAT_MEDIAN_HIGH or quarter < 0)
+
+
 def check_intensity(light_field: np.ndarray, source: Optional[str] = None,
                     stacklevel: int = 2) -> Optional[str]:
     """Warns (:class:`liff.IntensityWarning`) when a light field's values are off the scale
@@ -95,7 +111,8 @@ def check_intensity(light_field: np.ndarray, source: Optional[str] = None,
     -------
     str or None
         The warning's message, or None when the values look right: uint8 always; uint16
-        with values reaching 2**14 or more; floats in [0, 1.01] reaching 1/16 or more.
+        with values reaching 2**14 or more; floats reaching 1/16 or more, in [0, 1.01]
+        or with a centre view on the [0, 1] scale (see Notes).
 
     Notes
     -----
@@ -103,14 +120,17 @@ def check_intensity(light_field: np.ndarray, source: Optional[str] = None,
     2**14 (10-, 12- or 14-bit sensor data, which the detector divides by 65535 and so
     sees with a 64th, 16th or 4th of its contrast: few or no features); floats above
     1.01 (e.g. 0..255: the detector sees 255 times the contrast, many noise features)
-    or below 0; floats whose largest value is below 1/16. An all-zero light field is
-    not warned about.
+    or below 0 when the centre view's median is above 1 or a quarter of it negative
+    (noise and highlights alone push [0, 1] data past its ends); floats whose largest
+    value is below 1/16.
+    An all-zero light field is not warned about.
     """
     array = np.asarray(light_field)
-    dtype = array.dtype.newbyteorder("=")
-    if dtype not in (np.uint16, np.float32, np.float64) or array.ndim not in (2, 3, 4, 5) \
-            or array.size == 0:
+    if array.dtype.kind not in "uf" or array.ndim not in (2, 3, 4, 5) or array.size == 0:
         return None  # not a light field liff takes: the detector says what is wrong
+    dtype = array.dtype.newbyteorder("=")
+    if dtype not in (np.uint16, np.float32, np.float64):
+        return None
     low, high = intensity_range(array)
     seen = f"values in [{low:g}, {high:g}]"
     message = None
@@ -120,7 +140,7 @@ def check_intensity(light_field: np.ndarray, source: Optional[str] = None,
                    f"divides uint16 by 65535, so it sees 1/{65535 / (2 ** bits - 1):.0f} of the "
                    f"contrast and finds few or no features; read it with bit_depth={bits} "
                    f"(--bit-depth {bits}), or scale it: lf * (65535 / {2 ** bits - 1})")
-    elif dtype != np.uint16 and (high > FLOAT_HIGH or low < 0):
+    elif dtype != np.uint16 and (high > FLOAT_HIGH or low < 0) and _off_scale(array):
         if low >= 0 and high <= 65535:
             bits = 8 if high <= 255 else math.ceil(math.log2(high + 1))
             fix = (f"read it with bit_depth={bits} (--bit-depth {bits}), or scale it: "

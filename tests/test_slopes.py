@@ -1,0 +1,200 @@
+"""The focal stack's slopes: automatic by default (docs/SLOPES.md), hand-set with their
+exact meaning, the spacing rule, sub-slice slopes and the range-end warning."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import cv2
+import numpy as np
+import pytest
+
+import liff
+from liff import synthetic
+
+from lfhelpers import assert_same_keypoints
+
+
+def blob_layers(slopes, n=5, size=160, seed=0, per_layer=5):
+    shape = (n, n, size, size)
+    blobs = synthetic.random_blob_layers(slopes, shape, blobs_per_layer=per_layer,
+                                         radius_range=(2.5, 5.0), seed=seed, margin=14)
+    lf = synthetic.render_disks(blobs, shape, profile="gaussian", noise_variance=1e-5, seed=seed)
+    return np.clip(lf, 0, 1).astype(np.float32), blobs
+
+
+def matched(keypoints, blobs):
+    radii = np.array([b.radius for b in blobs])
+    return synthetic.match_blobs(keypoints, blobs, np.maximum(2.0, radii / 2), radii + 2.0)
+
+
+@pytest.fixture(scope="module")
+def far_layers():
+    """5x5 views of 160x160: blob layers at -2.5, 0.5 and 2.5, far outside [-1, 1] on
+    both sides, with an empty gap between -2.5 and 0.5."""
+    return blob_layers([-2.5, 0.5, 2.5])
+
+
+def test_automatic_range_is_the_default_and_round_trips(tmp_path):
+    d = liff.LiFF.create()
+    assert d.getFirstSlope() == -math.inf and d.getLastSlope() == math.inf
+    path = str(tmp_path / "d.yml")
+    d.save(path)
+    e = liff.LiFF.create(firstSlope=-1, lastSlope=1)
+    e.read(path)
+    assert e.getFirstSlope() == -math.inf and e.getLastSlope() == math.inf
+    e.setFirstSlope(-2.0)  # half automatic: a finite lower bound
+    assert e.getFirstSlope() == -2.0 and e.getLastSlope() == math.inf
+    with pytest.raises(ValueError, match="firstSlope"):
+        e.setFirstSlope(math.inf)  # +inf is not the automatic side of firstSlope
+
+
+def test_layers_far_outside_the_papers_range_are_found_at_their_slopes(far_layers):
+    lf, blobs = far_layers
+    d = liff.LiFF.create()
+    kps = d.detect(lf)
+    match = matched(kps, blobs)
+    slopes = np.array([b.slope for b in blobs])
+    for layer in (-2.5, 0.5, 2.5):
+        assert match.found[slopes == layer].mean() >= 0.6, layer
+    assert np.median(np.abs(match.slope_errors)) < 0.02
+    # No feature at an end of the searched slopes: every searched slice has both
+    # neighbours, so none is pinned there.
+    searched, used = d.getSearchedSlopes(), d.getSlicesUsed()
+    tol = 1 / liff.SLOPE_SCALE
+    found = liff.keypoint_slopes(kps)
+    assert not np.any(np.abs(found - searched[0]) <= tol)
+    assert not np.any(np.abs(found - searched[-1]) <= tol)
+    assert used[0] < searched[0] and used[-1] > searched[-1]
+
+
+def test_empty_slope_intervals_are_skipped_and_searched_slices_have_both_neighbours(far_layers):
+    lf, _ = far_layers
+    d = liff.LiFF.create()
+    d.detect(lf)
+    spacing = 2 / (5 - 1)
+    searched, used = np.array(d.getSearchedSlopes()), np.array(d.getSlicesUsed())
+    assert not np.any((searched > -1.6) & (searched < -0.4))  # the gap between layers
+    for m in searched:
+        assert np.min(np.abs(used - (m - spacing))) < 1e-9
+        assert np.min(np.abs(used - (m + spacing))) < 1e-9
+    assert np.allclose(np.round(used / spacing) * spacing, used)  # one grid, through 0
+    assert d.slopesFor(lf) == list(used)  # the survey alone gives the same plan
+
+
+def test_hand_set_range_keeps_its_exact_meaning(far_layers):
+    lf, _ = far_layers
+    d = liff.LiFF.create(firstSlope=-1, lastSlope=1)
+    kps = d.detect(lf)
+    assert d.getSlicesUsed() == d.slopesFor(5, 5) == pytest.approx(np.linspace(-1, 1, 5))
+    assert d.getSearchedSlopes() == d.getSlicesUsed()
+    slopes = liff.keypoint_slopes(kps)
+    assert slopes.min() >= -1 - 1e-6 and slopes.max() <= 1 + 1e-6
+
+
+@pytest.mark.parametrize("T, S, first, last, expected", [
+    (9, 9, -1, 1, 9), (3, 3, -6, 6, 13), (5, 5, -0.3, 0.3, 3), (4, 4, -1, 1, 5),
+    (15, 15, -4, 3, 51), (1, 7, 0, 1, 5),
+])
+def test_slice_spacing_is_one_pixel_at_the_outermost_view(T, S, first, last, expected):
+    slopes = liff.LiFF.create(firstSlope=first, lastSlope=last).slopesFor(T, S)
+    assert len(slopes) == expected
+    assert np.max(np.diff(slopes)) <= 2 / (max(T, S) - 1) + 1e-12
+
+
+def test_explicit_numslopes_with_an_automatic_range(far_layers):
+    lf, _ = far_layers
+    d = liff.LiFF.create(numSlopes=7)
+    d.detect(lf)
+    used = d.getSlicesUsed()
+    assert len(used) == 7 and d.getSearchedSlopes() == used
+    assert used[0] < -2 and used[-1] > 2
+    assert np.allclose(np.diff(used), np.diff(used)[0])
+
+
+def test_half_automatic_range_stays_within_its_finite_bound(far_layers):
+    lf, _ = far_layers
+    d = liff.LiFF.create(firstSlope=0.0)  # lastSlope stays automatic
+    slopes = liff.keypoint_slopes(d.detect(lf))
+    assert len(slopes) and slopes.min() >= 0.0
+    assert np.any(np.abs(slopes - 2.5) < 0.1)
+
+
+@pytest.mark.parametrize("value", [0.0, 0.5, 1.0])
+def test_constant_and_blank_light_fields_give_no_features_and_no_error(value):
+    lf = np.full((5, 5, 96, 96), value, np.float32)
+    d = liff.LiFF.create()
+    assert d.detectAndCompute(lf) == ((), None)
+    assert len(d.getSlicesUsed()) >= 1
+
+
+def test_two_dimensional_input_is_unchanged(texture_image):
+    """A single view has one slice at slope 0, exactly as the explicit [-1, 1] gave."""
+    auto = liff.LiFF.create()
+    explicit = liff.LiFF.create(firstSlope=-1, lastSlope=1)
+    a, da = auto.detectAndCompute(texture_image)
+    b, db = explicit.detectAndCompute(texture_image)
+    assert_same_keypoints(a, b)
+    np.testing.assert_array_equal(da, db)
+    assert auto.getSlicesUsed() == [0.0] and auto.slopesFor(1, 1) == [0.0]
+
+
+def test_slopes_for_view_counts_needs_a_light_field_when_automatic(far_layers):
+    with pytest.raises(ValueError, match="slopesFor\\(lightField\\)"):
+        liff.LiFF.create().slopesFor(5, 5)
+    lf, _ = far_layers
+    assert liff.LiFF.create().slopesFor(lf) == sorted(liff.LiFF.create().slopesFor(lf))
+
+
+def test_compute_describes_on_the_slices_detection_used(far_layers):
+    lf, _ = far_layers
+    d = liff.LiFF.create()
+    kps, desc = d.detectAndCompute(lf)
+    again, desc2 = d.compute(lf, kps)
+    assert_same_keypoints(again, kps)
+    np.testing.assert_array_equal(desc2, desc)
+
+
+def test_sub_slice_slopes_stay_accurate_with_coarse_spacing():
+    """Five slices over [-2, 2] for 9x9 views: a spacing of four pixels of parallax at
+    the outermost view. The Gaussian fit keeps slopes close (observed median 0.006;
+    the parabola through the DoG values gave 0.035)."""
+    lf, blobs = blob_layers([-1.3, -0.4, 0.6, 1.45], n=9, size=128, seed=3, per_layer=4)
+    kps = liff.LiFF.create(firstSlope=-2, lastSlope=2, numSlopes=5).detect(lf)
+    match = matched(kps, blobs)
+    assert match.found.mean() >= 0.8
+    assert np.median(np.abs(match.slope_errors)) < 0.015
+
+
+def test_hand_set_range_that_cuts_the_scene_warns_with_a_range_that_holds_it(far_layers):
+    lf, _ = far_layers
+    with pytest.warns(liff.SlopeRangeWarning, match=r"sit at an end of the slope range "
+                                                   r"\[-1, 1\].*try firstSlope=-2\.\d+, lastSlope=2\.\d+"):
+        liff.LiFF.create(firstSlope=-1, lastSlope=1).detect(lf)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", liff.SlopeRangeWarning)
+        liff.LiFF.create().detect(lf)  # automatic: never
+        liff.LiFF.create(firstSlope=-3, lastSlope=3).detect(lf)  # holds the scene
+
+
+def test_features_at_the_scenes_own_ends_do_not_warn():
+    """Layers exactly at -1 and +1 searched over [-1, 1]: their features sit at the
+    range's ends, which is where the scene ends too."""
+    lf, _ = blob_layers([-1.0, 1.0], seed=1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", liff.SlopeRangeWarning)
+        kps = liff.LiFF.create(firstSlope=-1, lastSlope=1).detect(lf)
+    slopes = liff.keypoint_slopes(kps)
+    assert np.mean(np.isclose(np.abs(slopes), 1.0, atol=1e-4)) > 0.05
+
+
+def test_few_views_with_textures_keep_a_tight_range():
+    """3x3 views of textured layers within [-0.3, 0.3]: at wrong slopes the nine copies
+    of a texture make random extrema; the survey's coherence and density tests keep
+    them from claiming slopes far away."""
+    scene = synthetic.textured_layers((3, 3, 160, 160), (-0.3, 0.0, 0.3), seed=4)
+    d = liff.LiFF.create()
+    d.detect(scene.light_field)
+    searched = d.getSearchedSlopes()
+    assert -3 <= searched[0] and searched[-1] <= 3

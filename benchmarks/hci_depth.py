@@ -97,12 +97,16 @@ def main(argv=None) -> int:
     print("\n| method | features | with an estimate | median abs error | 90th pct | within 0.1 |")
     print("|---|---|---|---|---|---|")
     main_run = None
-    for num_slopes in (0, 17, 33):
-        detector = liff.LiFF.create(firstSlope=lo, lastSlope=hi, numSlopes=num_slopes)
+    runs = [dict()] + [dict(firstSlope=lo, lastSlope=hi, numSlopes=n) for n in (9, 0, 33)]
+    for settings in runs:
+        detector = liff.LiFF.create(**settings)
         kps = detector.detect(lf)
         slopes = liff.keypoint_slopes(kps)
         st = error_stats(slopes, truth_at(gt, np.array([k.pt for k in kps]).reshape(-1, 2)))
-        label = f"LiFF, {len(detector.slopesFor(T, S))} slopes in [{lo}, {hi}]"
+        searched = detector.getSearchedSlopes()
+        label = (f"LiFF, {len(searched)} slopes in [{lo}, {hi}]" if settings else
+                 f"LiFF, default (automatic): {len(searched)} slopes searched in "
+                 f"[{searched[0]:.2f}, {searched[-1]:.2f}]")
         print(f"| {label} | {len(kps)} | {st['n']} | {st['median']:.3f} | {st['p90']:.3f} | "
               f"{100 * st['within_0.1']:.0f}% |")
         if main_run is None:

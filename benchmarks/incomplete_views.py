@@ -53,7 +53,7 @@ def read_subset(lf: np.ndarray, views: set, folder: str) -> np.ndarray:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scene", default=DEFAULT_SCENE)
-    parser.add_argument("--num-slopes", type=int, nargs="+", default=[0, 17],
+    parser.add_argument("--num-slopes", type=int, nargs="+", default=[9, 17],
                         help="slope counts to try (0: the default, odd >= views)")
     args = parser.parse_args(argv)
     if not os.path.isdir(args.scene):

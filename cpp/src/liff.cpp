@@ -179,6 +179,10 @@ class LiFF_Impl : public LiFF {
   SlopePlan planSlices(const Parameters& parameters, const LightField& lf, int batch,
                        const std::vector<cv::KeyPoint>* describing) const;
   void remember(const SlopePlan& plan);
+  // Fits the memory limit (the slices built at once, `batch`) and converts `input`
+  // into `lf`, whose sizes checkLightField set; returns the memory estimate.
+  detail::MemoryEstimate convert(const Parameters& parameters, const cv::Mat& input, LightField& lf,
+                                 int& batch) const;
 
   Parameters parameters_;
   double memoryLimitMB_ = 0;
@@ -208,17 +212,24 @@ void LiFF_Impl::remember(const SlopePlan& plan) {
   lastSearched_ = searched;
 }
 
+detail::MemoryEstimate LiFF_Impl::convert(const Parameters& parameters, const cv::Mat& input,
+                                          LightField& lf, int& batch) const {
+  // Memory check before the grey conversion, the largest single allocation.
+  detail::MemoryEstimate need = detail::sliceMemory(lf.viewSize(), parameters.nOctaveLayers,
+                                                    detail::numOctaves(lf.viewSize()));
+  need.lightFieldBytes = detail::conversionBytes(input, lf);
+  batch = sliceBatch(lf, need, memoryLimitMB_);
+  detail::convertLightField(input, lf);
+  return need;
+}
+
 std::vector<double> LiFF_Impl::slopesFor(cv::InputArray image) {
   const Parameters parameters = parameters_;
   const cv::Mat input = image.getMat();
   LightField lf = detail::checkLightField(input);
   if (!detail::automaticRange(parameters) || (lf.T == 1 && lf.S == 1)) return slopesFor(lf.T, lf.S);
-  const int octaves = detail::numOctaves(lf.viewSize());
-  detail::MemoryEstimate need =
-      detail::sliceMemory(lf.viewSize(), parameters.nOctaveLayers, octaves);
-  need.lightFieldBytes = detail::conversionBytes(input, lf);
-  const int batch = sliceBatch(lf, need, memoryLimitMB_);
-  detail::convertLightField(input, lf);
+  int batch = 1;
+  convert(parameters, input, lf, batch);
   return planSlices(parameters, lf, batch, nullptr).slopes;
 }
 
@@ -231,14 +242,8 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   const cv::Mat mask = maskArray.getMat();
   detail::checkMask(mask, lf.viewSize());
   if (!detail::automaticRange(parameters)) detail::uniformPlan(parameters, lf.T, lf.S);  // checks
-  const int octaves = detail::numOctaves(lf.viewSize());
-
-  // Memory check before the grey conversion, the largest single allocation.
-  detail::MemoryEstimate need =
-      detail::sliceMemory(lf.viewSize(), parameters.nOctaveLayers, octaves);
-  need.lightFieldBytes = detail::conversionBytes(input, lf);
-  const int batch = sliceBatch(lf, need, memoryLimitMB_);
-  detail::convertLightField(input, lf);
+  int batch = 1;
+  const detail::MemoryEstimate need = convert(parameters, input, lf, batch);
   const SlopePlan slices =
       planSlices(parameters, lf, batch, useProvidedKeypoints ? &keypoints : nullptr);
   remember(slices);
@@ -247,8 +252,8 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   Call call{parameters,
             lf,
             slices,
-            detail::ScaleSpaceSettings{parameters.nOctaveLayers, parameters.sigma, octaves,
-                                       !useProvidedKeypoints},
+            detail::ScaleSpaceSettings{parameters.nOctaveLayers, parameters.sigma,
+                                       detail::numOctaves(lf.viewSize()), !useProvidedKeypoints},
             batch,
             need.slicesAhead(batch)};
   if (useProvidedKeypoints) {

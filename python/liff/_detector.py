@@ -234,14 +234,15 @@ class LiFF(_core.LiFF):
         high = int(np.sum(np.abs(slopes - searched[-1]) <= tol))
         if low + high <= RANGE_END_SHARE * len(rows):
             return
-        surveyed = self._survey(lf)  # slopes of the features the automatic survey finds
-        found = (min(surveyed), max(surveyed)) if surveyed else None
-        # beyond: nearer a slice past the end than the end slice itself
+        # Structure beyond an end: a share of the survey's features (not one outlier)
+        # nearer a slice past the end than the end slice itself.
+        surveyed = np.asarray(self._survey(lf))
         half = (searched[1] - searched[0]) / 2
-        beyond = found is not None and ((low and found[0] < first - half) or
-                                        (high and found[1] > last + half))
-        if not beyond:
+        if not len(surveyed) or not (
+                (low and np.mean(surveyed < first - half) > RANGE_END_SHARE) or
+                (high and np.mean(surveyed > last + half) > RANGE_END_SHARE)):
             return
+        found = (float(np.percentile(surveyed, 1)), float(np.percentile(surveyed, 99)))
         lo, hi = min(first, found[0]), max(last, found[1])
         warnings.warn(f"{low + high} of {len(rows)} features ({100 * (low + high) / len(rows):.0f}%) "
                       f"sit at an end of the slope range [{first:g}, {last:g}] and the light "

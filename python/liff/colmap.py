@@ -32,7 +32,7 @@ import cv2
 import numpy as np
 
 from . import plot, preprocess
-from .io._shared import IMAGE_SUFFIXES, write_image
+from .io.images import IMAGE_SUFFIXES, write_image
 
 try:
     import pycolmap

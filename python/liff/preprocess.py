@@ -25,7 +25,7 @@ from typing import Optional, Tuple, Union
 
 import numpy as np
 
-from .io._shared import LIGHT_FIELD_DTYPES
+from .io.images import LIGHT_FIELD_DTYPES
 
 __all__ = ["to_float", "to_luminance", "apply_gamma", "equalize", "prepare", "border_mask"]
 

@@ -7,7 +7,7 @@ import os
 
 from .. import __version__
 from ..feature_file import Features, centre_view, save_features
-from ..io._shared import write_image
+from ..io.images import write_image
 from ..plot import draw_keypoints_by_slope
 from . import common, mask
 

@@ -35,7 +35,7 @@ def load_mask(spec: Optional[str], light_field: np.ndarray, source: str) -> Opti
         from ..preprocess import border_mask
 
         return border_mask(light_field)
-    from ..io._shared import read_image
+    from ..io.images import read_image
 
     image = read_image(spec)
     if image.ndim == 3:  # the colour channels; alpha (C = 2 or 4) is not part of the mask

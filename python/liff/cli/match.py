@@ -7,7 +7,7 @@ import argparse
 import numpy as np
 
 from ..feature_file import Features, features_from_light_field, load_features
-from ..io._shared import write_image
+from ..io.images import write_image
 from ..matching import draw_inliers, ratio_matches, verify
 from ..plot import to_display
 from . import common

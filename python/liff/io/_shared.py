@@ -1,4 +1,5 @@
-"""What the format modules share: the result type, array checks, image reading and writing.
+"""What the format modules share: the result type and array checks (image reading and
+writing are public, in :mod:`liff.io.images`).
 
 Nothing here knows a particular layout; each ``liff.io`` format module builds on these.
 """
@@ -9,19 +10,13 @@ import math
 import numbers
 import os
 from dataclasses import dataclass, field
-from typing import Optional, Sequence, Tuple, Union
+from typing import Optional, Sequence, Tuple
 
-import cv2
 import numpy as np
 
-PathLike = Union[str, os.PathLike]
-
-#: dtypes a light field may have (as the detector accepts them, see docs/CONVENTIONS.md)
-LIGHT_FIELD_DTYPES = (np.uint8, np.uint16, np.float32, np.float64)
-#: file name endings read as images by the view-folder reader
-IMAGE_SUFFIXES = (".png", ".tif", ".tiff", ".jpg", ".jpeg", ".bmp", ".ppm", ".pgm", ".webp")
-#: endings whose OpenCV encoders keep 16 bits (the others fall back to 8 bits silently)
-SIXTEEN_BIT_SUFFIXES = (".png", ".tif", ".tiff")
+# The image helpers are public (liff.io.images); the readers take them from here too.
+from .images import (IMAGE_SUFFIXES, LIGHT_FIELD_DTYPES, SIXTEEN_BIT_SUFFIXES,  # noqa: F401
+                     PathLike, as_image, read_image, write_image)
 
 
 @dataclass
@@ -172,42 +167,6 @@ def centre_views(light_field: np.ndarray, keep) -> np.ndarray:
     return light_field[centre_range(T, rows), centre_range(S, cols)]
 
 
-def _is_grey_alpha_png(path: str) -> bool:
-    """True for a PNG of colour type 4 (grey + alpha), which OpenCV expands to BGRA."""
-    with open(path, "rb") as f:
-        head = f.read(26)
-    return len(head) == 26 and head[:8] == b"\x89PNG\r\n\x1a\n" and head[25] == 4
-
-
-def read_image(path: PathLike) -> np.ndarray:
-    """Reads an image as stored (``cv2.IMREAD_UNCHANGED``: 16 bits and alpha survive).
-
-    Returns
-    -------
-    ndarray, shape (V, U) grey, (V, U, 2) grey + alpha, (V, U, 3) BGR or (V, U, 4) BGRA,
-        dtype as stored (uint8, uint16, float32 or float64).
-
-    Raises
-    ------
-    ValueError
-        If the file is missing, OpenCV cannot decode it, or it decodes to a dtype liff
-        does not accept (e.g. a signed-integer TIFF).
-    """
-    path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise ValueError(f"{path}: no such file; expected an image")
-    image = cv2.imread(path, cv2.IMREAD_UNCHANGED)
-    if image is None:
-        raise ValueError(f"{path}: unreadable image; expected a format OpenCV decodes "
-                         f"(PNG, TIFF, JPEG, ...)")
-    if image.dtype not in LIGHT_FIELD_DTYPES:  # OpenCV reads some TIFFs as int8/16/32
-        raise ValueError(f"{path}: image has dtype {image.dtype}; expected uint8, uint16, "
-                         f"float32 or float64")
-    if image.ndim == 3 and image.shape[2] == 4 and _is_grey_alpha_png(path):
-        image = np.ascontiguousarray(image[:, :, [0, 3]])
-    return image
-
-
 def check_writable(light_field: np.ndarray, path: PathLike) -> np.ndarray:
     """Checks that ``light_field`` can be written as images at ``path`` (by ending).
 
@@ -231,23 +190,6 @@ def check_writable(light_field: np.ndarray, path: PathLike) -> np.ndarray:
                          f"for images (OpenCV cannot write grey + alpha: repeat the grey "
                          f"channel to BGRA, or save .npz)")
     return light_field
-
-
-def as_image(array: np.ndarray) -> np.ndarray:
-    """(V, U) or (V, U, C) image of a view or mosaic, dropping a single channel axis."""
-    return array[..., 0] if array.ndim == 3 and array.shape[2] == 1 else array
-
-
-def write_image(path: PathLike, image: np.ndarray) -> None:
-    """Writes one image with OpenCV; raises ValueError naming ``path`` if it fails."""
-    path = os.fspath(path)
-    try:
-        ok = cv2.imwrite(path, np.ascontiguousarray(image))
-    except cv2.error as e:
-        raise ValueError(f"{path}: OpenCV could not write the image ({e})") from None
-    if not ok:
-        raise ValueError(f"{path}: OpenCV could not write the image; expected a writable path "
-                         f"with an image ending such as .png or .tif")
 
 
 def pick_key(source: str, names: Sequence[str], key: Optional[str], preferred: str,

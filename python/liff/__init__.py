@@ -9,12 +9,17 @@ disparity) is in ``class_id`` and read with :func:`keypoint_slopes`.
 
 from ._core import SLOPE_SCALE, getNumThreads, opencvVersion, setNumThreads
 from ._detector import LiFF, LiFF_create, keypoint_slopes
+from .camera import LightFieldCamera
+from .pose import PoseEstimationError, estimate_relative_pose
 
 __all__ = [
     "LiFF",
     "LiFF_create",
     "SLOPE_SCALE",
     "keypoint_slopes",
+    "LightFieldCamera",
+    "estimate_relative_pose",
+    "PoseEstimationError",
     "setNumThreads",
     "getNumThreads",
     "opencvVersion",

@@ -231,17 +231,21 @@ class _Problem:
         point[:, 5, 2] += c2.slope_scale / pz  # slope2 = f b (w / p_z - 1/F): direct term
         return pose * self.scale[:, :, None], point * self.scale[:, :, None]
 
+    def _point_columns(self) -> np.ndarray:
+        """(n, 6, 3): the parameter column of each point entry, rows in residual order."""
+        return np.broadcast_to(3 * np.arange(self.n)[:, None, None] + np.arange(3), (self.n, 6, 3))
+
     def jacobian(self, params):
+        """Sparse (6n, 6 + 3n) Jacobian: each row holds 6 pose and 3 point entries."""
         from scipy.sparse import csr_matrix
 
         pose, point = self.blocks(params)
         n = self.n
-        data = np.concatenate([pose, point], axis=2).reshape(-1)  # per row: 6 pose, 3 point
-        cols = np.concatenate([np.broadcast_to(np.arange(6), (n, 6, 6)),
-                               6 + 3 * np.arange(n)[:, None, None] + np.arange(3)[None, None, :]
-                               + np.zeros((n, 6, 1), int)], axis=2).reshape(-1)
-        rows = np.repeat(np.arange(6 * n), 9)
-        return csr_matrix((data, (rows, cols)), shape=(6 * n, 6 + 3 * n))
+        data = np.concatenate([pose, point], axis=2).reshape(-1)
+        if getattr(self, "_columns", None) is None:  # the same pattern for every call
+            self._columns = np.concatenate([np.broadcast_to(np.arange(6), (n, 6, 6)),
+                                            6 + self._point_columns()], axis=2).reshape(-1)
+        return csr_matrix((data, self._columns, np.arange(0, 54 * n + 1, 9)), shape=(6 * n, 6 + 3 * n))
 
     def solve_points(self, params):
         """params with every point fitted to its observations, the pose held."""
@@ -249,15 +253,14 @@ class _Problem:
         from scipy.sparse import csr_matrix
 
         n = self.n
-        rows = np.repeat(np.arange(6 * n), 3)
-        cols = (3 * np.arange(n)[:, None, None] + np.arange(3)[None, None, :]
-                + np.zeros((n, 6, 1), int)).reshape(-1)
+        columns, pointers = self._point_columns().reshape(-1), np.arange(0, 18 * n + 1, 3)
 
         def full(points):
             return np.concatenate([params[:6], points])
 
         def jac(points):
-            return csr_matrix((self.blocks(full(points))[1].reshape(-1), (rows, cols)), shape=(6 * n, 3 * n))
+            return csr_matrix((self.blocks(full(points))[1].reshape(-1), columns, pointers),
+                              shape=(6 * n, 3 * n))
 
         fit = least_squares(lambda q: self.residuals(full(q)).ravel(), params[6:], jac=jac,
                             method="trf", tr_solver="lsmr", x_scale="jac", xtol=1e-8, ftol=1e-8,
@@ -506,12 +509,17 @@ def guided_matches(obs1: np.ndarray, descriptors1: np.ndarray, obs2: np.ndarray,
     noise1 = np.column_stack([s1[:, 0], s1[:, 0], s1[:, 1] / camera1.slope_scale]) ** 2
     cov1 = np.einsum("nij,nj,nkj->nik", J, noise1, J)
     noise2 = np.column_stack([s2[:, 0], s2[:, 0], s2[:, 1]]) ** 2  # (n2, 3), diagonal
+    # Candidates first by a lower bound of the distance (positions only, the covariance
+    # bounded by its largest eigenvalue), then the exact distance of those.
+    valid = np.isfinite(pred).all(axis=1)
+    largest = np.where(valid, np.linalg.eigvalsh(np.where(valid[:, None, None], cov1, 0)[:, :2, :2])[:, -1], 0)
+    xy = np.square(obs2[None, :, :2] - pred[:, None, :2]).sum(axis=2)  # (n1, n2)
+    i, j = np.nonzero(valid[:, None] & (xy < CHI2_INLIER * (largest[:, None] + noise2[None, :, 0])))
+    diff = obs2[j] - pred[i]
+    cov = cov1[i] + noise2[j][:, :, None] * np.eye(3)
+    distance = np.einsum("nj,nj->n", diff, np.linalg.solve(cov, diff[:, :, None])[:, :, 0])
     mask = np.zeros((n1, n2), np.uint8)
-    for i in np.flatnonzero(np.isfinite(pred).all(axis=1)):  # (n2, 3, 3) systems per row
-        diff = obs2 - pred[i]
-        cov = cov1[i][None] + noise2[:, :, None] * np.eye(3)
-        distance = np.einsum("nj,nj->n", diff, np.linalg.solve(cov, diff[:, :, None])[:, :, 0])
-        mask[i] = distance < CHI2_INLIER
+    mask[i[distance < CHI2_INLIER], j[distance < CHI2_INLIER]] = 1
     if max_size_factor is not None:
         mask &= _size_mask(metric_sizes, n1, n2, max_size_factor)
     if not mask.any():

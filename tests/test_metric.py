@@ -351,3 +351,41 @@ def test_cli_sfm_with_a_camera_is_in_metres(pose_files, tmp_path, capsys):
     for a, b in ((0, 1), (1, 2), (0, 2)):
         ratio = np.linalg.norm(est[a] - est[b]) / np.linalg.norm(true[a] - true[b])
         assert ratio == pytest.approx(1.0, abs=0.03)
+
+
+def write_hci_scene(folder, light_field, camera, width=None):
+    """An HCI-style scene folder (input_CamNNN.png, parameters.cfg) of a grey light field
+    in [0, 1], its parameters.cfg describing ``camera`` (principal point at the centre)."""
+    T, S, V, U = light_field.shape
+    folder.mkdir()
+    for t in range(T):
+        for s in range(S):
+            view = np.clip(np.round(light_field[t, s] * 255), 0, 255).astype(np.uint8)
+            cv2.imwrite(str(folder / f"input_Cam{t * S + s:03d}.png"), cv2.merge([view] * 3))
+    sensor_mm = 35.0
+    (folder / "parameters.cfg").write_text(
+        f"[intrinsics]\nfocal_length_mm = {camera.focal_length * sensor_mm / max(U, V)!r}\n"
+        f"sensor_size_mm = {sensor_mm}\nimage_resolution_x_px = {width or U}\n"
+        f"image_resolution_y_px = {V}\n[extrinsics]\nnum_cams_x = {S}\nnum_cams_y = {T}\n"
+        f"baseline_mm = {camera.baseline * 1000!r}\nfocus_distance_m = {camera.focus_distance!r}\n")
+
+
+def test_cli_pose_takes_the_camera_from_hci_scenes(pose_capture, tmp_path, capsys):
+    capture, _ = pose_capture
+    camera = camera_of(capture)
+    for i in (0, 1):
+        write_hci_scene(tmp_path / f"scene{i}", capture.light_fields[i], camera)
+    read = read_hci(tmp_path / "scene0").camera
+    assert read.focal_length == pytest.approx(camera.focal_length)
+    assert read.principal_point == camera.principal_point
+    out = tmp_path / "pose.json"
+    assert main(["pose", str(tmp_path / "scene0"), str(tmp_path / "scene1"), *detector_options(),
+                 "--out", str(out)]) == 0
+    _, t_true = true_relative(capture, 0, 1)
+    t = np.array(json.loads(out.read_text())["t"])
+    assert np.linalg.norm(t - t_true) <= 0.02 * np.linalg.norm(t_true)
+    capsys.readouterr()
+    # parameters.cfg that contradicts the views is refused by the reader
+    write_hci_scene(tmp_path / "bad", capture.light_fields[0][:2, :2], camera, width=512)
+    with pytest.raises(ValueError, match="image_resolution 512x180 differs from the views' 240x180"):
+        read_hci(tmp_path / "bad")

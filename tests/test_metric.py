@@ -389,3 +389,27 @@ def test_cli_pose_takes_the_camera_from_hci_scenes(pose_capture, tmp_path, capsy
     write_hci_scene(tmp_path / "bad", capture.light_fields[0][:2, :2], camera, width=512)
     with pytest.raises(ValueError, match="image_resolution 512x180 differs from the views' 240x180"):
         read_hci(tmp_path / "bad")
+
+
+def test_camera_options_read_a_toolbox_matrix_and_refuse_bad_files(tmp_path):
+    import argparse
+
+    from liff.cli.calibration import add_camera_options, camera_from_args
+
+    parser = argparse.ArgumentParser()
+    add_camera_options(parser)
+    H = toolbox_H()
+    text = tmp_path / "H.txt"
+    np.savetxt(text, H, delimiter=",")  # as MATLAB's writematrix would
+    expected = liff.LightFieldCamera.from_lftoolbox(H)
+    assert camera_from_args(parser.parse_args(["--lftoolbox", str(text)])) == expected
+    np.save(tmp_path / "H.npy", H)
+    assert camera_from_args(parser.parse_args(["--lftoolbox", str(tmp_path / "H.npy")])) == expected
+    assert camera_from_args(parser.parse_args([])) is None
+    (tmp_path / "bad.txt").write_text("1 2 x\n")
+    with pytest.raises(ValueError, match="bad.txt: unreadable"):
+        camera_from_args(parser.parse_args(["--lftoolbox", str(tmp_path / "bad.txt")]))
+    with pytest.raises(ValueError, match="no such file"):
+        camera_from_args(parser.parse_args(["--lftoolbox", str(tmp_path / "none.txt")]))
+    with pytest.raises(ValueError, match="focal_length"):
+        camera_from_args(parser.parse_args(["--camera", "-1", "0.1", "0", "0"]))

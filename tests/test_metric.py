@@ -344,6 +344,10 @@ def test_cli_sfm_with_a_camera_is_in_metres(pose_files, tmp_path, capsys):
     scale = float(re.search(r"scaled to metres: x ([\d.e+-]+)", printed).group(1))
     assert scale > 0
     model = pycolmap.Reconstruction(str(workspace / "sparse" / "0"))
+    # the calibration's intrinsics are kept by bundle adjustment (COLMAP's pixels: +0.5)
+    camera = camera_of(capture)
+    assert list(next(iter(model.cameras.values())).params) == pytest.approx(
+        [camera.focal_length, camera.principal_point[0] + 0.5, camera.principal_point[1] + 0.5])
     centres = {model.image(i).name: model.image(i).projection_center() for i in model.reg_image_ids()}
     assert len(centres) == 3
     est = [centres[f"pose{i}.png"] for i in range(3)]

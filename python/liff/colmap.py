@@ -332,7 +332,8 @@ def match(database_path: PathLike, matching=None, verification=None, seed: int =
         device=pycolmap.Device.cpu)
 
 
-def mapper_options(kind: str = "default", seed: int = 0) -> "pycolmap.IncrementalPipelineOptions":
+def mapper_options(kind: str = "default", seed: int = 0,
+                   fixed_intrinsics: bool = False) -> "pycolmap.IncrementalPipelineOptions":
     """COLMAP's incremental mapper options.
 
     ``"default"`` is COLMAP's defaults. ``"permissive"`` relaxes what the paper names
@@ -344,6 +345,9 @@ def mapper_options(kind: str = "default", seed: int = 0) -> "pycolmap.Incrementa
     whatever its size, so with either setting two registered images make a model. Both
     fix the random seed and run on one thread: with several, bundle adjustment's sums
     come in a varying order and the 3-D point counts vary from run to run.
+    ``fixed_intrinsics`` keeps the camera's focal length, principal point and
+    distortion as written to the database (a calibrated camera): bundle adjustment
+    then refines only poses and points.
     """
     options = pycolmap.IncrementalPipelineOptions()
     options.num_threads = 1
@@ -360,16 +364,20 @@ def mapper_options(kind: str = "default", seed: int = 0) -> "pycolmap.Incrementa
         options.triangulation.ignore_two_view_tracks = False
     elif kind != "default":
         raise ValueError(f"mapper = {kind!r}; expected 'default' or 'permissive'")
+    if fixed_intrinsics:
+        options.ba_refine_focal_length = False
+        options.ba_refine_principal_point = False
+        options.ba_refine_extra_params = False
     return options
 
 
 def reconstruct(database_path: PathLike, image_dir: PathLike, out_dir: PathLike,
-                mapper: str = "default", seed: int = 0) -> SfmResult:
+                mapper: str = "default", seed: int = 0, fixed_intrinsics: bool = False) -> SfmResult:
     """COLMAP's incremental mapping on a matched database (see :func:`mapper_options`).
 
     Models are written to ``out_dir/0``, ``out_dir/1``, ...; the result holds them.
     """
-    options = mapper_options(mapper, seed)
+    options = mapper_options(mapper, seed, fixed_intrinsics)
     os.makedirs(out_dir, exist_ok=True)
     models = pycolmap.incremental_mapping(os.fspath(database_path), os.fspath(image_dir),
                                           os.fspath(out_dir), options)

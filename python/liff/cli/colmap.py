@@ -148,7 +148,9 @@ def run_sfm(args: argparse.Namespace) -> int:
         failures = write(args, database, image_dir, args.focal or camera.focal_length,
                          camera.principal_point, images_out=images)
     colmap.match(database)
-    result = colmap.reconstruct(database, image_dir, sparse, args.mapper)
+    # A calibrated camera's intrinsics are known: bundle adjustment keeps them.
+    result = colmap.reconstruct(database, image_dir, sparse, args.mapper,
+                                fixed_intrinsics=camera is not None)
     metrics = colmap.table_metrics(database, result)
     print(f"reconstruction ({args.mapper} mapper): "
           + ("a model in " + sparse if result.success else "FAILED (no model)"))

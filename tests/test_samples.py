@@ -41,3 +41,11 @@ def test_colmap_reconstruction_from_a_folder_of_light_fields(tmp_path):
     registered = int(re.search(r"registered (\d+)% of 5 images", printed).group(1))
     assert registered >= 80
     assert int(re.search(r"(\d+) 3D points", printed).group(1)) > 100
+
+
+def test_metric_pose_recovers_the_motion_in_metres():
+    printed = run_sample("metric_pose.py")
+    error = float(re.search(r"translation error ([\d.]+)%", printed).group(1))
+    assert error < 2.0
+    assert float(re.search(r"rotation error ([\d.]+) deg", printed).group(1)) < 0.5
+    assert int(re.search(r"inlier matches: (\d+)", printed).group(1)) >= 50

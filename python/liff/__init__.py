@@ -11,6 +11,8 @@ from ._core import getNumThreads, opencvVersion, setNumThreads
 from ._detector import PARAMETERS, LiFF, LiFF_create
 from ._warnings import IntensityWarning, LensletSizeWarning, LiffWarning, SlopeRangeWarning
 from .keypoint_rows import SLOPE_SCALE, keypoint_slopes
+from .camera import LightFieldCamera
+from .pose import PoseEstimationError, estimate_relative_pose
 
 __all__ = [
     "IntensityWarning",
@@ -22,6 +24,9 @@ __all__ = [
     "SLOPE_SCALE",
     "SlopeRangeWarning",
     "keypoint_slopes",
+    "LightFieldCamera",
+    "estimate_relative_pose",
+    "PoseEstimationError",
     "setNumThreads",
     "getNumThreads",
     "opencvVersion",

@@ -332,7 +332,8 @@ def match(database_path: PathLike, matching=None, verification=None, seed: int =
         device=pycolmap.Device.cpu)
 
 
-def mapper_options(kind: str = "default", seed: int = 0) -> "pycolmap.IncrementalPipelineOptions":
+def mapper_options(kind: str = "default", seed: int = 0,
+                   fixed_intrinsics: bool = False) -> "pycolmap.IncrementalPipelineOptions":
     """COLMAP's incremental mapper options.
 
     ``"default"`` is COLMAP's defaults. ``"permissive"`` relaxes what the paper names
@@ -344,6 +345,9 @@ def mapper_options(kind: str = "default", seed: int = 0) -> "pycolmap.Incrementa
     whatever its size, so with either setting two registered images make a model. Both
     fix the random seed and run on one thread: with several, bundle adjustment's sums
     come in a varying order and the 3-D point counts vary from run to run.
+    ``fixed_intrinsics`` keeps the camera's focal length, principal point and
+    distortion as written to the database (a calibrated camera): bundle adjustment
+    then refines only poses and points.
     """
     options = pycolmap.IncrementalPipelineOptions()
     options.num_threads = 1
@@ -360,16 +364,20 @@ def mapper_options(kind: str = "default", seed: int = 0) -> "pycolmap.Incrementa
         options.triangulation.ignore_two_view_tracks = False
     elif kind != "default":
         raise ValueError(f"mapper = {kind!r}; expected 'default' or 'permissive'")
+    if fixed_intrinsics:
+        options.ba_refine_focal_length = False
+        options.ba_refine_principal_point = False
+        options.ba_refine_extra_params = False
     return options
 
 
 def reconstruct(database_path: PathLike, image_dir: PathLike, out_dir: PathLike,
-                mapper: str = "default", seed: int = 0) -> SfmResult:
+                mapper: str = "default", seed: int = 0, fixed_intrinsics: bool = False) -> SfmResult:
     """COLMAP's incremental mapping on a matched database (see :func:`mapper_options`).
 
     Models are written to ``out_dir/0``, ``out_dir/1``, ...; the result holds them.
     """
-    options = mapper_options(mapper, seed)
+    options = mapper_options(mapper, seed, fixed_intrinsics)
     os.makedirs(out_dir, exist_ok=True)
     models = pycolmap.incremental_mapping(os.fspath(database_path), os.fspath(image_dir),
                                           os.fspath(out_dir), options)
@@ -438,3 +446,105 @@ def table_metrics(database_path: PathLike, result: Optional[SfmResult] = None) -
         "points3D": best.num_points3D() if best is not None else 0,
         "track_length": best.compute_mean_track_length() if has_points else float("nan"),
     }
+
+
+# --- metric scale ----------------------------------------------------------------------
+
+@dataclass
+class MetricScale:
+    """What :func:`metric_scale` returns.
+
+    Attributes
+    ----------
+    scale : float
+        Metres per reconstruction unit: multiply the model by it.
+    observations : int
+        Observations of 3-D points by LiFF features with a slope that the fit used.
+    inliers : int
+        Those within 3 robust standard deviations of the fit.
+    sigma_slope : float
+        Robust standard deviation of the slope residuals, pixels per view step.
+    """
+
+    scale: float
+    observations: int
+    inliers: int
+    sigma_slope: float
+
+
+def metric_scale(reconstruction: "pycolmap.Reconstruction", slopes: Dict[str, np.ndarray],
+                 camera) -> MetricScale:
+    """The scale that turns a COLMAP reconstruction from LiFF features into metres.
+
+    COLMAP's structure from motion fixes everything but the scale; a calibrated light
+    field fixes the scale too, from each feature's slope (docs/METRIC.md). For every
+    observation of a 3-D point by keypoint k of image I, z is the point's depth in I's
+    camera frame (model units) and the camera predicts the slope ``f b (1 / (s z) - 1 /
+    focus_distance)`` for scale s. The fit minimises the slope residuals (where the
+    noise is, so far points weigh little) robustly (SciPy's least_squares, soft-L1
+    loss at 3 robust standard deviations); the model is linear in u = 1 / s.
+
+    Parameters
+    ----------
+    reconstruction : pycolmap.Reconstruction
+        Its images' keypoints must be the LiFF keypoints, in order.
+    slopes : dict of str to ndarray, shape (N_I,)
+        Per image name, the slope of each keypoint (:func:`liff.keypoint_slopes`).
+    camera : liff.LightFieldCamera
+        The light field camera of every image.
+
+    Returns
+    -------
+    MetricScale
+
+    Raises
+    ------
+    ValueError
+        If an image's slope count differs from its keypoints, or fewer than 3
+        observations with a positive depth remain (no scale can be measured).
+    """
+    from scipy.optimize import least_squares
+
+    depths, observed = [], []
+    for image_id in reconstruction.reg_image_ids():
+        image = reconstruction.image(image_id)
+        if image.name not in slopes:
+            continue
+        m = np.asarray(slopes[image.name], np.float64).reshape(-1)
+        if len(m) != image.num_points2D():
+            raise ValueError(f"{image.name}: {len(m)} slopes for {image.num_points2D()} keypoints; "
+                             "expected one each")
+        pose = image.cam_from_world()
+        R, t = np.asarray(pose.rotation.matrix()), np.asarray(pose.translation)
+        for index, point2D in enumerate(image.points2D):
+            if point2D.has_point3D():
+                X = reconstruction.point3D(point2D.point3D_id).xyz
+                depths.append((R @ X + t)[2])
+                observed.append(m[index])
+    z, m = np.asarray(depths), np.asarray(observed)
+    keep = z > 0
+    z, m = z[keep], m[keep]
+    if len(z) < 3:
+        raise ValueError(f"{len(z)} observations of 3-D points with a slope; expected at least 3 "
+                         "to measure the scale")
+    fb, offset = camera.slope_scale, camera.slope_scale / camera.focus_distance
+    u_each = (m + offset) * z / fb  # 1/s from each observation alone
+    u0 = float(np.median(u_each))
+    residual = lambda u: fb * u[0] / z - offset - m  # noqa: E731
+    sigma = max(1.4826 * float(np.median(np.abs(residual([u0])))), 1e-6)
+    fit = least_squares(residual, [u0], loss="soft_l1", f_scale=3 * sigma)
+    u = float(fit.x[0])
+    if not u > 0:
+        raise ValueError("the slopes put the reconstruction at or beyond infinity; expected "
+                         "features with depth (check the camera)")
+    final = residual([u])
+    sigma = max(1.4826 * float(np.median(np.abs(final))), 1e-6)
+    return MetricScale(1.0 / u, len(z), int((np.abs(final) < 3 * sigma).sum()), sigma)
+
+
+def scale_reconstruction(reconstruction: "pycolmap.Reconstruction", scale: float) -> None:
+    """Multiplies a reconstruction's coordinates (points and camera centres) by ``scale``,
+    in place."""
+    if not (np.isfinite(scale) and scale > 0):
+        raise ValueError(f"scale = {scale}; expected a positive finite factor")
+    reconstruction.transform(pycolmap.Sim3d(float(scale), pycolmap.Rotation3d(), np.zeros(3)))

@@ -4,7 +4,7 @@ Lowe's ratio test, then a RANSAC homography (or fundamental matrix) for inliers.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import List, Optional, Sequence
+from typing import List, Optional, Sequence, Tuple
 
 import cv2
 import numpy as np
@@ -25,22 +25,70 @@ class MatchResult:
 
 
 def ratio_matches(descriptors_a: Optional[np.ndarray], descriptors_b: Optional[np.ndarray],
-                  ratio: float = 0.75) -> List[cv2.DMatch]:
-    """Brute-force L2 matches a -> b kept when ``d1 < ratio * d2`` (Lowe's test).
+                  ratio: float = 0.75, metric_sizes: Optional[Tuple[np.ndarray, np.ndarray]] = None,
+                  max_size_factor: Optional[float] = None) -> List[cv2.DMatch]:
+    """Brute-force L2 matches a -> b kept when ``d1 < ratio * d2`` (Lowe's test),
+    optionally scale-sensitive.
 
     Parameters
     ----------
-    descriptors_a, descriptors_b : ndarray, shape (N, 128), float32 or uint8, or None
+    descriptors_a, descriptors_b : ndarray, shape (Na, 128) and (Nb, 128), float32 or uint8, or None
     ratio : float in (0, 1]
+    metric_sizes : (ndarray, ndarray), shapes (Na,) and (Nb,), optional
+        Physical size of every feature in metres
+        (:meth:`liff.LightFieldCamera.metric_size`); NaN where unknown (a slope at or
+        beyond infinity).
+    max_size_factor : float > 1, optional
+        Scale-sensitive matching (the paper's closing suggestion, Dansereau et al. 2019,
+        Sec. 6): with ``metric_sizes``, a pair whose sizes differ by more than this
+        factor (``max(sa, sb) / min(sa, sb) > max_size_factor``) is rejected before the
+        nearest-neighbour search, so the ratio test compares only candidates of a
+        plausible size. Pairs with an unknown size are kept. Needs both arguments.
+
+    Returns
+    -------
+    list of cv2.DMatch
+        queryIdx into a, trainIdx into b.
+
+    Raises
+    ------
+    ValueError
+        For a ratio outside (0, 1], a factor <= 1 or not finite, sizes of the wrong
+        length or negative, or only one of ``metric_sizes`` and ``max_size_factor``.
     """
     if not 0 < ratio <= 1:
         raise ValueError(f"ratio = {ratio}; expected a value in (0, 1]")
+    if max_size_factor is not None and not (np.isfinite(max_size_factor) and max_size_factor > 1):
+        raise ValueError(f"max_size_factor = {max_size_factor}; expected a finite factor > 1")
+    if (metric_sizes is None) != (max_size_factor is None):
+        raise ValueError("scale-sensitive matching needs both metric_sizes and max_size_factor")
     if descriptors_a is None or descriptors_b is None or len(descriptors_a) == 0 or len(descriptors_b) < 2:
         return []
     a = np.asarray(descriptors_a, np.float32)
     b = np.asarray(descriptors_b, np.float32)
-    knn = cv2.BFMatcher(cv2.NORM_L2).knnMatch(a, b, k=2)
+    mask = None
+    if metric_sizes is not None:
+        mask = size_mask(metric_sizes, len(a), len(b), max_size_factor)
+    matcher = cv2.BFMatcher(cv2.NORM_L2)
+    knn = matcher.knnMatch(a, b, k=2) if mask is None else matcher.knnMatch(a, b, k=2, mask=mask)
     return [pair[0] for pair in knn if len(pair) == 2 and pair[0].distance < ratio * pair[1].distance]
+
+
+def size_mask(metric_sizes, na: int, nb: int, factor: float) -> np.ndarray:
+    """uint8 (na, nb): 1 where two features' metric sizes agree within ``factor`` (or
+    either is unknown)."""
+    try:
+        sa, sb = (np.asarray(s, np.float64).reshape(-1) for s in metric_sizes)
+    except (TypeError, ValueError):
+        raise ValueError("metric_sizes must be two arrays of sizes in metres") from None
+    if len(sa) != na or len(sb) != nb:
+        raise ValueError(f"metric_sizes have {len(sa)} and {len(sb)} entries for {na} and {nb} "
+                         "descriptors; expected one each")
+    if (sa[np.isfinite(sa)] <= 0).any() or (sb[np.isfinite(sb)] <= 0).any():
+        raise ValueError("metric_sizes hold values <= 0; expected positive sizes (or NaN)")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        log_ratio = np.abs(np.log(sa)[:, None] - np.log(sb)[None, :])
+    return (~(log_ratio > np.log(factor))).astype(np.uint8)  # NaN compares False: kept
 
 
 def verify(keypoints_a: Sequence[cv2.KeyPoint], keypoints_b: Sequence[cv2.KeyPoint],

@@ -1,4 +1,4 @@
-"""The ``liff`` console command: ``liff detect|match|colmap|sfm|synth|demo``.
+"""The ``liff`` console command: ``liff detect|match|pose|colmap|sfm|synth|demo``.
 
 Every subcommand lives in its own module here and registers itself with
 ``add_parser(subparsers)``; errors about the user's files are reported as
@@ -12,9 +12,9 @@ import argparse
 import sys
 from typing import List, Optional
 
-from . import colmap, demo, detect, match, synth
+from . import colmap, demo, detect, match, pose, synth
 
-COMMANDS = (detect, match, colmap, synth, demo)
+COMMANDS = (detect, match, pose, colmap, synth, demo)
 
 
 def build_parser() -> argparse.ArgumentParser:

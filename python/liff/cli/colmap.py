@@ -12,6 +12,7 @@ import numpy as np
 from ..keypoint_rows import keypoints_to_rows, rows_to_keypoints
 from ..feature_file import centre_view, load_features
 from . import common
+from .calibration import add_camera_options, camera_from_args
 from .match import is_feature_file
 
 METRICS = (("registered images", "registered", "{:.0%}"),
@@ -39,6 +40,7 @@ def add_parser(sub) -> None:
                            help="folder for database.db, images/ and sparse/")
             p.add_argument("--mapper", choices=("default", "permissive"), default="default",
                            help="COLMAP's default mapper options or permissive ones")
+            add_camera_options(p)  # with a camera, the model is scaled to metres
         p.add_argument("--focal", type=float, default=None,
                        help="focal length in pixels (default: COLMAP's guess, 1.2 x max side)")
         p.add_argument("--workers", type=int, default=1, help="processes for detection")
@@ -68,9 +70,12 @@ def features_for_colmap(path: str, options: dict, preprocess: bool, parameters: 
     return view, keypoints_to_rows(keypoints), descriptors
 
 
-def write(args: argparse.Namespace, database: str, image_dir: str) -> int:
+def write(args: argparse.Namespace, database: str, image_dir: str, focal=None,
+          principal_point=None, images_out=None) -> int:
     """Detects (or loads) features of every input and writes the database; returns the
-    number of inputs that failed."""
+    number of inputs that failed. ``focal`` and ``principal_point`` (OpenCV pixels)
+    default to ``--focal`` and the image centre; the images written are appended to
+    ``images_out`` if given."""
     from .. import colmap
 
     if os.path.exists(database):
@@ -94,10 +99,28 @@ def write(args: argparse.Namespace, database: str, image_dir: str) -> int:
     if not images:
         raise ValueError("no input could be read; nothing written")
     os.makedirs(os.path.dirname(os.path.abspath(database)), exist_ok=True)
-    colmap.write_database(database, image_dir, images, focal=args.focal)
+    colmap.write_database(database, image_dir, images, focal=args.focal if focal is None else focal,
+                          principal_point=principal_point)
+    if images_out is not None:
+        images_out.extend(images)
     total = sum(len(im.keypoints) for im in images)
     print(f"{database}: {len(images)} images, {total} LiFF features; centre views in {image_dir}")
     return failures
+
+
+def scale_to_metres(result, images, camera, sparse: str) -> None:
+    """Scales every model to metres by the features' slopes (liff.colmap.metric_scale),
+    rewrites it in place and prints the factor."""
+    from .. import colmap
+    from ..keypoint_rows import keypoint_slopes
+
+    slopes = {im.name: keypoint_slopes(im.keypoints) for im in images}
+    for index, model in sorted(result.reconstructions.items()):
+        fit = colmap.metric_scale(model, slopes, camera)
+        colmap.scale_reconstruction(model, fit.scale)
+        model.write(os.path.join(sparse, str(index)))
+        print(f"  model {index} scaled to metres: x {fit.scale:.6g} (from {fit.inliers} of "
+              f"{fit.observations} observations; slope noise {fit.sigma_slope:.3g} px per view)")
 
 
 def run_colmap(args: argparse.Namespace) -> int:
@@ -115,14 +138,24 @@ def run_sfm(args: argparse.Namespace) -> int:
     database = os.path.join(args.workspace, "database.db")
     image_dir = os.path.join(args.workspace, "images")
     sparse = os.path.join(args.workspace, "sparse")
+    camera = camera_from_args(args)
     if args.overwrite:
         shutil.rmtree(sparse, ignore_errors=True)
-    failures = write(args, database, image_dir)
+    images = []
+    if camera is None:
+        failures = write(args, database, image_dir, images_out=images)
+    else:  # the calibration's focal length and principal point are COLMAP's prior
+        failures = write(args, database, image_dir, args.focal or camera.focal_length,
+                         camera.principal_point, images_out=images)
     colmap.match(database)
-    result = colmap.reconstruct(database, image_dir, sparse, args.mapper)
+    # A calibrated camera's intrinsics are known: bundle adjustment keeps them.
+    result = colmap.reconstruct(database, image_dir, sparse, args.mapper,
+                                fixed_intrinsics=camera is not None)
     metrics = colmap.table_metrics(database, result)
     print(f"reconstruction ({args.mapper} mapper): "
           + ("a model in " + sparse if result.success else "FAILED (no model)"))
+    if camera is not None and result.success:
+        scale_to_metres(result, images, camera, sparse)
     for label, key, fmt in METRICS:
         value = metrics[key]
         print(f"  {label:26s} " + ("-" if isinstance(value, float) and np.isnan(value) else fmt.format(value)))

@@ -16,6 +16,7 @@ from typing import Optional, Union
 import cv2
 import numpy as np
 
+from ..camera import HCI_CAMERA_KEYS, LightFieldCamera
 from ._shared import describe_missing
 from .pfm import read_pfm
 
@@ -27,13 +28,16 @@ MAX_VIEWS = 1000  # input_Cam000 .. input_Cam999
 @dataclass
 class HciScene:
     """An HCI scene: ``light_field`` (T, S, V, U, 3) uint8 BGR, the scene's disparity
-    range, its ground-truth disparity (V, U) float32 if present, and parameters.cfg."""
+    range, its ground-truth disparity (V, U) float32 if present, parameters.cfg, and
+    the calibrated camera (:meth:`liff.LightFieldCamera.from_hci`) when parameters.cfg
+    has the intrinsics and extrinsics it needs."""
 
     light_field: np.ndarray
     disp_min: Optional[float]
     disp_max: Optional[float]
     gt_disparity: Optional[np.ndarray]
     parameters: dict = field(default_factory=dict)
+    camera: Optional[LightFieldCamera] = None
 
 
 def _number(text: str, kind, name: str, path: str):
@@ -54,7 +58,8 @@ def read_hci(folder: PathLike) -> HciScene:
     ------
     ValueError
         Naming the folder or file: no views, missing views, views of mixed sizes,
-        unreadable images, a parameters.cfg whose grid disagrees with the views, or a
+        unreadable images, a parameters.cfg whose grid or image resolution disagrees
+        with the views or whose camera entries are out of range, or a
         gt_disp_lowres.pfm that is not a grey map of the views' size.
     """
     folder = os.fspath(folder)
@@ -124,4 +129,11 @@ def read_hci(folder: PathLike) -> HciScene:
     if gt is not None and gt.shape != first[:2]:
         raise ValueError(f"{gt_path}: size {gt.shape[1]}x{gt.shape[0]} differs from the views' "
                          f"{first[1]}x{first[0]}")
-    return HciScene(lf, disp_min, disp_max, gt, parameters)
+    camera = None
+    if all(key in parameters.get(section, {}) for section, key in HCI_CAMERA_KEYS):
+        camera = LightFieldCamera.from_hci_parameters(parameters, cfg_path)
+        if (camera.principal_point[0] * 2 + 1, camera.principal_point[1] * 2 + 1) != (first[1], first[0]):
+            raise ValueError(f"{cfg_path}: image_resolution {camera.principal_point[0] * 2 + 1:g}x"
+                             f"{camera.principal_point[1] * 2 + 1:g} differs from the views' "
+                             f"{first[1]}x{first[0]}")
+    return HciScene(lf, disp_min, disp_max, gt, parameters, camera)

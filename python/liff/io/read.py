@@ -21,7 +21,7 @@ from .views import read_views
 def _read_hci(folder: PathLike) -> LightFieldFile:
     scene = read_hci(folder)
     metadata = {"disp_min": scene.disp_min, "disp_max": scene.disp_max,
-                "parameters": scene.parameters}
+                "parameters": scene.parameters, "camera": scene.camera}
     return LightFieldFile(scene.light_field, "hci", metadata, scene.gt_disparity,
                           os.fspath(folder))
 

@@ -1,0 +1,87 @@
+"""``liff pose A B``: the metric relative pose of two light field captures."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from ..feature_file import Features, features_from_light_field, load_features
+from . import common
+from .calibration import add_camera_options, camera_from_args
+from .match import is_feature_file
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "pose", help="metric relative pose of two light field captures",
+        description="Estimates the rigid motion between two light field captures of a "
+                    "scene, with absolute scale, from their LiFF features and the "
+                    "calibrated camera (liff.estimate_relative_pose; docs/METRIC.md). "
+                    "Prints R and t (metres) with X_B = R X_A + t in the centre views' "
+                    "camera frames (x right, y down, z forward). The camera comes from the "
+                    "options, or from an input that knows it (an HCI scene).")
+    p.add_argument("a", help="light field (or feature file from liff detect) of capture A")
+    p.add_argument("b", help="light field (or feature file) of capture B")
+    p.add_argument("--ratio", type=float, default=0.8, help="ratio test (default 0.8)")
+    p.add_argument("--max-size-factor", type=float, default=None, metavar="K",
+                   help="scale-sensitive matching: reject candidates whose metric sizes differ "
+                        "by more than K (e.g. 1.5)")
+    p.add_argument("--out", default=None, help="write R, t and the inlier count as JSON")
+    add_camera_options(p)
+    common.add_reader_options(p)
+    common.add_detector_options(p)
+    p.set_defaults(run=run)
+
+
+def features_and_camera(path: str, args: argparse.Namespace):
+    """(Features, the camera the file's reader knows or None)."""
+    if is_feature_file(path):
+        return load_features(path), None
+    from .. import io
+
+    source = io.read_light_field(path, **common.reader_options(args))
+    light_field = source.light_field
+    if args.preprocess:
+        from ..preprocess import prepare
+
+        light_field = prepare(light_field)
+    detector = common.make_detector(common.detector_parameters(args))
+    return features_from_light_field(detector, light_field), source.metadata.get("camera")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..pose import estimate_relative_pose
+
+    camera = camera_from_args(args)
+    fa, camera_a = features_and_camera(args.a, args)
+    fb, camera_b = features_and_camera(args.b, args)
+    if camera is not None:
+        camera_a = camera_b = camera
+    if camera_a is None or camera_b is None:
+        raise ValueError("no camera calibration: give --camera F B CX CY (and --focus-distance), "
+                         "--hci or --lftoolbox, or inputs that carry one (HCI scenes)")
+    _check(fa, args.a)
+    _check(fb, args.b)
+    R, t, matches = estimate_relative_pose(fa.keypoints, fa.descriptors, fb.keypoints,
+                                           fb.descriptors, camera_a, camera_b, ratio=args.ratio,
+                                           max_size_factor=args.max_size_factor)
+    angle = float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))))
+    print(f"{args.a}: {len(fa.keypoints)} features; {args.b}: {len(fb.keypoints)} features; "
+          f"{len(matches)} inlier matches")
+    print("R =\n" + np.array2string(R, precision=6, suppress_small=True))
+    print("t = " + np.array2string(t, precision=6, suppress_small=True) + f" m, |t| = "
+          f"{np.linalg.norm(t):.6g} m; rotation {angle:.4f} deg")
+    print("centre of B in A's frame: " + np.array2string(-R.T @ t, precision=6, suppress_small=True) + " m")
+    if args.out:
+        with open(args.out, "w", encoding="utf-8") as f:
+            json.dump({"R": R.tolist(), "t": t.tolist(), "inliers": len(matches),
+                       "convention": "X_B = R X_A + t, metres, OpenCV camera frames"}, f, indent=2)
+        print(f"wrote {args.out}")
+    return 0
+
+
+def _check(features: Features, path: str) -> None:
+    if features.descriptors is None or len(features.keypoints) == 0:
+        raise ValueError(f"{path}: no features; expected a light field with texture")

@@ -1,0 +1,677 @@
+"""Metric relative pose between two light field captures from matched LiFF features.
+
+A calibrated light field gives every feature a 3-D position (:class:`LightFieldCamera`),
+so two captures of a scene fix their relative pose *with absolute scale*, which no pair
+of 2-D images does. :func:`estimate_relative_pose` matches the features, finds a rigid
+motion robustly by RANSAC on the 3-D-3-D matches (COLMAP's LO-RANSAC through pycolmap),
+then refines it where the noise lives: in each capture's observations (x, y, slope).
+The 3-D points themselves are poor measurements: depth noise grows as Z^2 / (f b) times
+the slope noise, so far points dominate a fit in 3-D (a plain Umeyama fit) and the
+inverse of a noisy slope is biased. The refinement is a two-capture bundle adjustment
+(SciPy's ``least_squares``, analytic sparse Jacobian) over the pose and each matched
+point, parameterised in capture 1 by its pixel and inverse depth (points at or near
+infinity stay finite), each residual divided by its feature's noise from a model
+fitted to the residuals themselves (:class:`NoiseModel`). Guided matching with the
+refined pose then recovers the matches that the ratio test lost. See docs/METRIC.md
+for the model, its assumptions and limits.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import List, Optional, Sequence, Tuple
+
+import cv2
+import numpy as np
+
+from .keypoint_rows import keypoint_slopes
+from .camera import LightFieldCamera
+from .matching import size_mask, ratio_matches
+
+#: chi-square (3 degrees of freedom: 6 residuals, 3 point parameters) below which a
+#: match is an inlier of the refined pose; its 99.9% quantile.
+CHI2_INLIER = 16.27
+MIN_MATCHES = 3
+#: rounds of guided matching and refinement after the first pose
+GUIDED_ROUNDS = 2
+#: lower bounds of the estimated noise: positions (pixels), slopes (pixels per view step)
+SIGMA_FLOOR = (1e-3, 1e-4)
+#: median of log |z| for a standard normal z: log(0.6745)
+_MEDIAN_LOG_ABS_NORMAL = -0.3937
+#: matches below which the noise model keeps one level per kind (no size or contrast terms)
+_MIN_FOR_TERMS = 100
+
+
+class PoseEstimationError(ValueError):
+    """No trustworthy pose: too few matches, too few inliers, or degenerate geometry."""
+
+
+@dataclass
+class NoiseModel:
+    """Noise of a LiFF feature's position and slope, fitted to the residuals of a pose.
+
+    ``log sigma_k = c_k0 + c_k1 log(size / size_ref) + c_k2 log(response / response_ref)``
+    for k = position (pixels) and slope (pixels per view step): features differ a lot
+    (a thin occluder's edge moves by a pixel where a blob on a wall moves by 1/30 px; a
+    low-contrast feature in noise is found less precisely), and a fit that weighs them
+    alike is no better than its worst features.
+
+    Attributes
+    ----------
+    coefficients : ndarray, shape (2, 3)
+        Rows position, slope; columns intercept, size exponent, response exponent.
+    reference : ndarray, shape (2,)
+        size_ref (pixels) and response_ref, the medians of the features.
+    """
+
+    coefficients: np.ndarray
+    reference: np.ndarray
+
+    def covariates(self, keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
+        """(N, 2): log(size / size_ref), log(response / response_ref); 0 where a keypoint
+        has no positive size or response."""
+        values = np.array([(k.size, k.response) for k in keypoints], np.float64).reshape(-1, 2)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = np.log(values / self.reference)
+        return np.where(np.isfinite(out), out, 0.0)
+
+    def sigma(self, covariates: np.ndarray) -> np.ndarray:
+        """(N, 2): position and slope noise of features with these covariates."""
+        x = np.column_stack([np.ones(len(covariates)), covariates])
+        return np.maximum(np.exp(x @ self.coefficients.T), SIGMA_FLOOR)
+
+    @classmethod
+    def for_keypoints(cls, keypoints: Sequence[cv2.KeyPoint], sigma_xy: float = np.nan,
+                      sigma_slope: float = np.nan) -> "NoiseModel":
+        """Equal noise for all features, with the keypoints' medians as reference (NaN
+        levels: :func:`refine_relative_pose` estimates them)."""
+        values = np.array([(k.size, k.response) for k in keypoints], np.float64).reshape(-1, 2)
+        reference = np.ones(2)
+        for j in range(2):
+            positive = values[:, j][values[:, j] > 0]
+            if positive.size:
+                reference[j] = np.median(positive)
+        coefficients = np.array([[np.log(sigma_xy), 0, 0], [np.log(sigma_slope), 0, 0]], np.float64)
+        return cls(coefficients, reference)
+
+
+@dataclass
+class RelativePose:
+    """What :func:`refine_relative_pose` returns.
+
+    Attributes
+    ----------
+    rotation : ndarray, shape (3, 3)
+    translation : ndarray, shape (3,)
+        Metres; ``X2 = rotation @ X1 + translation`` maps the centre view's camera frame
+        of capture 1 to that of capture 2.
+    inliers : ndarray of bool, shape (N,)
+        Matches whose observations agree with the pose (chi-square test, 99.9%).
+    points : ndarray, shape (N, 3)
+        Refined 3-D points in capture 1's frame, metres (inf where the inverse depth
+        is <= 0).
+    covariance : ndarray, shape (6, 6)
+        Covariance of (rotation vector in radians, translation in metres) from the
+        inliers' observations and the fitted noise (first order).
+    noise : NoiseModel
+        The fitted noise of the features' positions and slopes.
+    """
+
+    rotation: np.ndarray
+    translation: np.ndarray
+    inliers: np.ndarray
+    points: np.ndarray
+    covariance: np.ndarray
+    noise: NoiseModel
+
+    @property
+    def sigma_xy(self) -> float:
+        """Position noise of a median feature, pixels."""
+        return float(self.noise.sigma(np.zeros((1, 2)))[0, 0])
+
+    @property
+    def sigma_slope(self) -> float:
+        """Slope noise of a median feature, pixels per view step."""
+        return float(self.noise.sigma(np.zeros((1, 2)))[0, 1])
+
+    @property
+    def translation_sigma(self) -> float:
+        """Standard deviation of the translation's length, metres (first order)."""
+        direction = self.translation / max(np.linalg.norm(self.translation), 1e-300)
+        return float(np.sqrt(direction @ self.covariance[3:, 3:] @ direction))
+
+    @property
+    def rotation_sigma_degrees(self) -> float:
+        """Root of the rotation vector's total variance, degrees."""
+        return float(np.degrees(np.sqrt(np.trace(self.covariance[:3, :3]))))
+
+
+def observations(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
+    """(x, y, slope) of LiFF keypoints, float64 (N, 3): centre-view pixels and pixels
+    per view step."""
+    keypoints = list(keypoints)
+    for k in keypoints:
+        if not isinstance(k, cv2.KeyPoint):
+            raise ValueError(f"keypoints hold a {type(k).__name__}; expected cv2.KeyPoint")
+    xy = np.array([k.pt for k in keypoints], np.float64).reshape(-1, 2)
+    return np.column_stack([xy, keypoint_slopes(keypoints)])
+
+
+def _back_project(camera: LightFieldCamera, obs: np.ndarray) -> np.ndarray:
+    """3-D points (N, 3) of observations (x, y, slope); NaN at or beyond infinity."""
+    return camera.back_project(obs[:, :2], camera.depth(obs[:, 2]))
+
+
+def _rotation(rvec: np.ndarray) -> np.ndarray:
+    return cv2.Rodrigues(np.asarray(rvec, np.float64).reshape(3, 1))[0]
+
+
+class _Problem:
+    """The two-capture bundle adjustment: residuals, Jacobian and its per-match blocks.
+
+    params = [rotation vector (3), translation (3), (x, y, w) per match], x, y the
+    point's pixel in capture 1 and w = 1/Z its inverse depth. Residuals per match, each
+    divided by its noise (n, 6): (x1, y1, slope1, x2, y2, slope2) predicted - observed.
+    """
+
+    def __init__(self, obs1, obs2, cam1: LightFieldCamera, cam2: LightFieldCamera, noise):
+        self.obs1, self.obs2, self.cam1, self.cam2 = obs1, obs2, cam1, cam2
+        self.n = len(obs1)
+        self.scale = 1.0 / np.asarray(noise, np.float64)  # (n, 6): 1 / noise of each residual
+
+    def _geometry(self, params):
+        R, dR = cv2.Rodrigues(np.asarray(params[:3], np.float64).reshape(3, 1))
+        t = params[3:6]
+        pts = params[6:].reshape(self.n, 3)
+        c1 = self.cam1
+        cx1, cy1 = c1.principal_point
+        d = np.column_stack([(pts[:, 0] - cx1) / c1.focal_length, (pts[:, 1] - cy1) / c1.focal_length,
+                             np.ones(self.n)])
+        p = d @ R.T + np.outer(pts[:, 2], t)  # w * X2: finite for points at infinity
+        pz = np.maximum(p[:, 2], 1e-9)  # behind capture 2: clamped (such a match is an outlier)
+        return R, dR, t, pts, d, p, pz
+
+    def residuals(self, params) -> np.ndarray:
+        """(n, 6) normalised residuals."""
+        _, _, _, pts, _, p, pz = self._geometry(params)
+        c1, c2 = self.cam1, self.cam2
+        cx2, cy2 = c2.principal_point
+        pred = np.column_stack([
+            pts[:, 0], pts[:, 1], c1.slope_scale * (pts[:, 2] - 1 / c1.focus_distance),
+            c2.focal_length * p[:, 0] / pz + cx2, c2.focal_length * p[:, 1] / pz + cy2,
+            c2.slope_scale * (pts[:, 2] / pz - 1 / c2.focus_distance)])
+        return (pred - np.hstack([self.obs1, self.obs2])) * self.scale
+
+    def blocks(self, params):
+        """Jacobian blocks of the normalised residuals: (n, 6, 6) on the pose and
+        (n, 6, 3) on each match's own point."""
+        R, dR, t, pts, d, p, pz = self._geometry(params)
+        n, c1, c2 = self.n, self.cam1, self.cam2
+        f2, w = c2.focal_length, pts[:, 2]
+        # d(prediction 2)/dp: rows x2, y2, slope2
+        dproj = np.zeros((n, 3, 3))
+        dproj[:, 0, 0] = f2 / pz
+        dproj[:, 0, 2] = -f2 * p[:, 0] / pz ** 2
+        dproj[:, 1, 1] = f2 / pz
+        dproj[:, 1, 2] = -f2 * p[:, 1] / pz ** 2
+        dproj[:, 2, 2] = -c2.slope_scale * w / pz ** 2
+        dp_pose = np.empty((n, 3, 6))
+        dp_pose[:, :, :3] = np.einsum("kij,nj->nik", dR.reshape(3, 3, 3), d)
+        dp_pose[:, :, 3:] = w[:, None, None] * np.eye(3)
+        dp_point = np.empty((n, 3, 3))
+        dp_point[:, :, 0] = R[:, 0] / c1.focal_length
+        dp_point[:, :, 1] = R[:, 1] / c1.focal_length
+        dp_point[:, :, 2] = t
+        pose = np.zeros((n, 6, 6))
+        pose[:, 3:] = dproj @ dp_pose
+        point = np.zeros((n, 6, 3))
+        point[:, 0, 0] = point[:, 1, 1] = 1.0
+        point[:, 2, 2] = c1.slope_scale
+        point[:, 3:] = dproj @ dp_point
+        point[:, 5, 2] += c2.slope_scale / pz  # slope2 = f b (w / p_z - 1/F): direct term
+        return pose * self.scale[:, :, None], point * self.scale[:, :, None]
+
+    def _point_columns(self) -> np.ndarray:
+        """(n, 6, 3): the parameter column of each point entry, rows in residual order."""
+        return np.broadcast_to(3 * np.arange(self.n)[:, None, None] + np.arange(3), (self.n, 6, 3))
+
+    def jacobian(self, params):
+        """Sparse (6n, 6 + 3n) Jacobian: each row holds 6 pose and 3 point entries."""
+        from scipy.sparse import csr_matrix
+
+        pose, point = self.blocks(params)
+        n = self.n
+        data = np.concatenate([pose, point], axis=2).reshape(-1)
+        if getattr(self, "_columns", None) is None:  # the same pattern for every call
+            self._columns = np.concatenate([np.broadcast_to(np.arange(6), (n, 6, 6)),
+                                            6 + self._point_columns()], axis=2).reshape(-1)
+        return csr_matrix((data, self._columns, np.arange(0, 54 * n + 1, 9)), shape=(6 * n, 6 + 3 * n))
+
+    def solve_points(self, params):
+        """params with every point fitted to its observations, the pose held."""
+        from scipy.optimize import least_squares
+        from scipy.sparse import csr_matrix
+
+        n = self.n
+        columns, pointers = self._point_columns().reshape(-1), np.arange(0, 18 * n + 1, 3)
+
+        def full(points):
+            return np.concatenate([params[:6], points])
+
+        def jac(points):
+            return csr_matrix((self.blocks(full(points))[1].reshape(-1), columns, pointers),
+                              shape=(6 * n, 3 * n))
+
+        fit = least_squares(lambda q: self.residuals(full(q)).ravel(), params[6:], jac=jac,
+                            method="trf", tr_solver="lsmr", x_scale="jac", xtol=1e-8, ftol=1e-8,
+                            max_nfev=50)
+        return full(fit.x)
+
+    def solve(self, params0, loss: str):
+        from scipy.optimize import least_squares
+
+        return least_squares(lambda q: self.residuals(q).ravel(), params0, jac=self.jacobian,
+                             method="trf", tr_solver="lsmr", x_scale="jac", loss=loss,
+                             f_scale=3.0, xtol=1e-8, ftol=1e-8, max_nfev=100)
+
+
+def _point_leverage(point_blocks: np.ndarray) -> np.ndarray:
+    """Diagonal of each match's hat matrix A (A^T A)^-1 A^T, A its (6, 3) point block:
+    the part of each residual that the match's own point absorbs, (n, 6)."""
+    inverse = np.linalg.pinv(np.einsum("nri,nrj->nij", point_blocks, point_blocks))
+    return np.einsum("nri,nij,nrj->nr", point_blocks, inverse, point_blocks)
+
+
+def _pose_covariance(pose_blocks: np.ndarray, point_blocks: np.ndarray) -> np.ndarray:
+    """(J^T J)^-1 of the pose, the points eliminated by the Schur complement."""
+    A = np.einsum("nri,nrj->ij", pose_blocks, pose_blocks)
+    B = np.einsum("nri,nrj->nij", pose_blocks, point_blocks)  # (n, 6, 3)
+    C = np.einsum("nri,nrj->nij", point_blocks, point_blocks)  # (n, 3, 3)
+    schur = A - np.einsum("nij,njk,nlk->il", B, np.linalg.pinv(C), B)
+    eigenvalues = np.linalg.eigvalsh(schur)
+    if not np.isfinite(eigenvalues).all() or eigenvalues[0] <= 1e-12 * max(eigenvalues[-1], 1e-300):
+        raise PoseEstimationError("degenerate geometry: the matched points do not fix the pose "
+                                  "(too few, collinear, or all at infinity)")
+    return np.linalg.inv(schur)
+
+
+def _residual_noise(model: NoiseModel, cov1: np.ndarray, cov2: np.ndarray) -> np.ndarray:
+    """(n, 6) noise of each residual (x1, y1, slope1, x2, y2, slope2)."""
+    s1, s2 = model.sigma(cov1), model.sigma(cov2)
+    return np.column_stack([s1[:, 0], s1[:, 0], s1[:, 1], s2[:, 0], s2[:, 0], s2[:, 1]])
+
+
+def _update_noise(model: NoiseModel, e: np.ndarray, redundancy: np.ndarray, cov1: np.ndarray,
+                  cov2: np.ndarray) -> NoiseModel:
+    """Refits the noise model to inliers' normalised residuals ``e`` (n, 6).
+
+    Each residual divided by the root of its redundancy (the share of it that the
+    match's own point does not absorb) has unit variance if the model is right, so
+    log |u| estimates log(sigma_true / sigma_model) + log |z|: it is regressed on the
+    features' covariates (least squares, for the exponents, from 100 matches on) and the
+    level set by the median (minus the median of log |z|, robust to the worst inliers);
+    the correction is added to the model.
+    """
+    coefficients = model.coefficients.copy()
+    terms = len(e) >= _MIN_FOR_TERMS
+    for row, columns in ((0, [0, 1, 3, 4]), (1, [2, 5])):
+        r = redundancy[:, columns]
+        keep = r > 0.1
+        if not keep.any():
+            continue
+        u = np.abs(e[:, columns][keep]) / np.sqrt(r[keep])
+        y = np.log(np.maximum(u, 1e-6))
+        covariates = np.stack([cov1 if c < 3 else cov2 for c in columns], axis=1)[keep]  # (m, 2)
+        delta = np.zeros(3)
+        if terms:
+            delta = np.linalg.lstsq(np.column_stack([np.ones(len(y)), covariates]), y, rcond=None)[0]
+        # The level by the median (robust to the inliers' worst), E: median log |z|.
+        delta[0] = np.median(y - covariates @ delta[1:]) - _MEDIAN_LOG_ABS_NORMAL
+        coefficients[row] += delta
+        coefficients[row, 1:] = np.clip(coefficients[row, 1:], -2.0, 2.0)
+    return NoiseModel(coefficients, model.reference)
+
+
+def refine_relative_pose(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCamera,
+                         camera2: LightFieldCamera, rotation: np.ndarray, translation: np.ndarray,
+                         inliers: Optional[np.ndarray] = None,
+                         noise: Optional[NoiseModel] = None,
+                         covariates: Optional[Tuple[np.ndarray, np.ndarray]] = None,
+                         iterations: int = 4) -> RelativePose:
+    """Refines a relative pose in the captures' observations (x, y, slope).
+
+    Parameters
+    ----------
+    obs1, obs2 : ndarray, shape (N, 3)
+        Matched observations (x, y, slope) in captures 1 and 2 (:func:`observations`).
+    camera1, camera2 : LightFieldCamera
+    rotation : ndarray, shape (3, 3)
+    translation : ndarray, shape (3,)
+        Initial pose, ``X2 = rotation @ X1 + translation`` (metres).
+    inliers : ndarray of bool, shape (N,), optional
+        Matches believed right (e.g. RANSAC's), for the first noise estimate; default all.
+    noise : NoiseModel, optional
+        Starting noise model (its reference names the covariates' units); NaN levels, or
+        none given, are estimated from capture 2's residuals of the initial pose over
+        ``inliers``, alike for all features.
+    covariates : (ndarray, ndarray), shapes (N, 2), optional
+        The matched features' covariates in capture 1 and 2
+        (:meth:`NoiseModel.covariates`); default 0 (all features alike).
+    iterations : int
+        Rounds of (robust fit of every match, noise model fit, inlier test) before the
+        final fit.
+
+    Returns
+    -------
+    RelativePose
+
+    Raises
+    ------
+    PoseEstimationError
+        If fewer than 3 matches remain inliers or the geometry is degenerate.
+
+    Notes
+    -----
+    Minimises sum_i rho(|r_i|^2) over the pose and every point, r_i the six residuals
+    (x, y, slope in captures 1 and 2) of match i, each divided by its feature's noise.
+    The point is (x, y, w) in capture 1 (w = 1/Z); capture 2 sees ``p = R d + t w``, d =
+    ((x - cx) / f, (y - cy) / f, 1), at (f p_x / p_z + cx, f p_y / p_z + cy) with slope
+    ``f b (w / p_z - 1 / focus_distance)`` (the camera model, docs/METRIC.md).
+
+    Each round fits the pose and points of the current inliers with a Cauchy loss
+    (soft beyond 3 sigma), refits the noise model to their residuals
+    (:class:`NoiseModel`: position and slope noise as power laws of the features'
+    size and contrast), fits every match's point for that pose, and keeps the matches
+    whose chi-square (6 residuals less 3 point parameters: 3 degrees of freedom) is
+    below its 99.9% quantile. The final fit uses the inliers and plain
+    least squares, whose Jacobian gives the covariance, scaled by the a-posteriori
+    variance factor.
+    """
+    obs1, obs2 = np.asarray(obs1, np.float64), np.asarray(obs2, np.float64)
+    n = len(obs1)
+    if n < MIN_MATCHES:
+        raise PoseEstimationError(f"{n} matches; expected at least {MIN_MATCHES}")
+    inliers = np.ones(n, bool) if inliers is None else np.asarray(inliers, bool).copy()
+    if covariates is None:
+        cov1 = cov2 = np.zeros((n, 2))
+    else:
+        cov1, cov2 = (np.asarray(c, np.float64).reshape(n, 2) for c in covariates)
+    rvec = cv2.Rodrigues(np.asarray(rotation, np.float64))[0].ravel()
+    w0 = camera1.inverse_depth(obs1[:, 2])
+    params = np.concatenate([rvec, np.asarray(translation, np.float64).ravel(),
+                             np.column_stack([obs1[:, :2], w0]).ravel()])
+    noise = NoiseModel(np.full((2, 3), np.nan), np.ones(2)) if noise is None else noise
+    if np.isnan(noise.coefficients[:, 0]).any():  # from capture 2's residuals of the initial pose
+        r = _Problem(obs1, obs2, camera1, camera2, np.ones((n, 6))).residuals(params)[inliers, 3:]
+        noise = NoiseModel(np.array([[np.log(max(_mad(r[:, :2]), SIGMA_FLOOR[0])), 0, 0],
+                                     [np.log(max(_mad(r[:, 2]), SIGMA_FLOOR[1])), 0, 0]]),
+                           noise.reference)
+    for _ in range(iterations):
+        if inliers.sum() < MIN_MATCHES:
+            break
+        # Pose and points of the current inliers, robustly; the noise from them.
+        problem = _Problem(obs1[inliers], obs2[inliers], camera1, camera2,
+                           _residual_noise(noise, cov1[inliers], cov2[inliers]))
+        sub = problem.solve(np.concatenate([params[:6], params[6:].reshape(n, 3)[inliers].ravel()]),
+                            "cauchy").x
+        params[:6] = sub[:6]
+        params[6:].reshape(n, 3)[inliers] = sub[6:].reshape(-1, 3)
+        redundancy = 1.0 - _point_leverage(problem.blocks(sub)[1])
+        noise = _update_noise(noise, problem.residuals(sub), redundancy, cov1[inliers], cov2[inliers])
+        # Every match's point for that pose, then the chi-square test.
+        problem = _Problem(obs1, obs2, camera1, camera2, _residual_noise(noise, cov1, cov2))
+        params = problem.solve_points(params)
+        inliers = np.square(problem.residuals(params)).sum(axis=1) < CHI2_INLIER
+    k = int(inliers.sum())
+    if k < MIN_MATCHES:
+        raise PoseEstimationError(f"{k} of {n} matches agree with a pose; expected at least "
+                                  f"{MIN_MATCHES}")
+    problem = _Problem(obs1[inliers], obs2[inliers], camera1, camera2,
+                       _residual_noise(noise, cov1[inliers], cov2[inliers]))
+    sub = np.concatenate([params[:6], params[6:].reshape(n, 3)[inliers].ravel()])
+    result = problem.solve(sub, "linear")
+    params[:6] = result.x[:6]
+    pts = params[6:].reshape(n, 3)
+    pts[inliers] = result.x[6:].reshape(-1, 3)
+    covariance = _pose_covariance(*problem.blocks(result.x))
+    dof = max(1.0 - (3 * k + 6) / (6 * k), 0.1)
+    covariance *= 2 * result.cost / (6 * k * dof)  # a-posteriori variance factor
+    with np.errstate(divide="ignore"):
+        points = camera1.back_project(pts[:, :2], np.where(pts[:, 2] > 0, 1.0 / pts[:, 2], np.inf))
+    return RelativePose(_rotation(params[:3]), params[3:6].copy(), inliers, points, covariance, noise)
+
+
+def _mad(values: np.ndarray) -> float:
+    """1.4826 x the median absolute value (a robust standard deviation about 0)."""
+    return float(1.4826 * np.median(np.abs(values))) if values.size else 1.0
+
+
+def guided_matches(obs1: np.ndarray, descriptors1: np.ndarray, obs2: np.ndarray,
+                   descriptors2: np.ndarray, camera1: LightFieldCamera, camera2: LightFieldCamera,
+                   pose: RelativePose, covariates1: Optional[np.ndarray] = None,
+                   covariates2: Optional[np.ndarray] = None, ratio: float = 0.8,
+                   metric_sizes: Optional[Tuple[np.ndarray, np.ndarray]] = None,
+                   max_size_factor: Optional[float] = None) -> List[cv2.DMatch]:
+    """Matches consistent with a relative pose: nearest descriptors among the features
+    of capture 2 where the pose predicts each feature of capture 1 (guided matching).
+
+    Every feature of capture 1 is moved by the pose to a predicted (x, y, slope) in
+    capture 2, with a covariance from both features' noise (``pose.noise``; capture 1's
+    slope noise carried through the depth); candidates whose Mahalanobis distance to it
+    exceeds the chi-square 99.9% quantile (3 degrees of freedom) are masked out of the
+    nearest-neighbour search, Lowe's ratio test is applied among the rest (a lone
+    candidate is kept), and a match must also be the feature of capture 2's best gated
+    partner (cross check). Geometry, not appearance, then rules out most distractors,
+    so matches that the plain ratio test lost come back.
+
+    Parameters
+    ----------
+    obs1, obs2 : ndarray, shapes (N1, 3) and (N2, 3)
+        (x, y, slope) of every feature (:func:`observations`).
+    descriptors1, descriptors2 : ndarray, shapes (N1, 128) and (N2, 128)
+    camera1, camera2 : LightFieldCamera
+    pose : RelativePose
+    covariates1, covariates2 : ndarray, shapes (N1, 2) and (N2, 2), optional
+        The features' covariates for ``pose.noise`` (default 0).
+    ratio : float in (0, 1]
+    metric_sizes, max_size_factor : optional
+        Scale-sensitive matching as :func:`liff.matching.ratio_matches`.
+
+    Returns
+    -------
+    list of cv2.DMatch
+    """
+    n1, n2 = len(obs1), len(obs2)
+    if n1 == 0 or n2 == 0:
+        return []
+    s1 = pose.noise.sigma(np.zeros((n1, 2)) if covariates1 is None else covariates1)
+    s2 = pose.noise.sigma(np.zeros((n2, 2)) if covariates2 is None else covariates2)
+    R, t = pose.rotation, pose.translation
+    cx1, cy1 = camera1.principal_point
+    cx2, cy2 = camera2.principal_point
+    f2 = camera2.focal_length
+    w = camera1.inverse_depth(obs1[:, 2])
+    d = np.column_stack([(obs1[:, 0] - cx1) / camera1.focal_length,
+                         (obs1[:, 1] - cy1) / camera1.focal_length, np.ones(n1)])
+    p = d @ R.T + np.outer(w, t)
+    pz = np.where(p[:, 2] > 1e-9, p[:, 2], np.nan)  # in front of capture 2 only
+    pred = np.column_stack([f2 * p[:, 0] / pz + cx2, f2 * p[:, 1] / pz + cy2,
+                            camera2.slope_scale * (w / pz - 1 / camera2.focus_distance)])
+    # First-order covariance of the prediction from capture 1's noise in x, y and w.
+    dp = np.stack([np.broadcast_to(R[:, 0] / camera1.focal_length, (n1, 3)),
+                   np.broadcast_to(R[:, 1] / camera1.focal_length, (n1, 3)),
+                   np.broadcast_to(t, (n1, 3))], axis=2)  # d p / d (x1, y1, w): (n1, 3, 3)
+    J = np.empty((n1, 3, 3))
+    J[:, 0] = f2 * (dp[:, 0] * pz[:, None] - p[:, 0:1] * dp[:, 2]) / pz[:, None] ** 2
+    J[:, 1] = f2 * (dp[:, 1] * pz[:, None] - p[:, 1:2] * dp[:, 2]) / pz[:, None] ** 2
+    J[:, 2] = -camera2.slope_scale * w[:, None] * dp[:, 2] / pz[:, None] ** 2
+    J[:, 2, 2] += camera2.slope_scale / pz
+    noise1 = np.column_stack([s1[:, 0], s1[:, 0], s1[:, 1] / camera1.slope_scale]) ** 2
+    cov1 = np.einsum("nij,nj,nkj->nik", J, noise1, J)
+    noise2 = np.column_stack([s2[:, 0], s2[:, 0], s2[:, 1]]) ** 2  # (n2, 3), diagonal
+    # Candidates first by a lower bound of the distance (positions only, the covariance
+    # bounded by its largest eigenvalue), then the exact distance of those.
+    valid = np.isfinite(pred).all(axis=1)
+    largest = np.where(valid, np.linalg.eigvalsh(np.where(valid[:, None, None], cov1, 0)[:, :2, :2])[:, -1], 0)
+    xy = np.square(obs2[None, :, :2] - pred[:, None, :2]).sum(axis=2)  # (n1, n2)
+    i, j = np.nonzero(valid[:, None] & (xy < CHI2_INLIER * (largest[:, None] + noise2[None, :, 0])))
+    diff = obs2[j] - pred[i]
+    cov = cov1[i] + noise2[j][:, :, None] * np.eye(3)
+    distance = np.einsum("nj,nj->n", diff, np.linalg.solve(cov, diff[:, :, None])[:, :, 0])
+    mask = np.zeros((n1, n2), np.uint8)
+    mask[i[distance < CHI2_INLIER], j[distance < CHI2_INLIER]] = 1
+    if max_size_factor is not None:
+        mask &= size_mask(metric_sizes, n1, n2, max_size_factor)
+    if not mask.any():
+        return []
+    a, b = np.asarray(descriptors1, np.float32), np.asarray(descriptors2, np.float32)
+    matcher = cv2.BFMatcher(cv2.NORM_L2)
+    forward = matcher.knnMatch(a, b, k=2, mask=mask)
+    backward = {pair[0].queryIdx: pair[0].trainIdx  # best gated partner of each feature 2
+                for pair in matcher.knnMatch(b, a, k=1, mask=np.ascontiguousarray(mask.T)) if pair}
+    return [pair[0] for pair in forward
+            if (len(pair) == 1 or (len(pair) == 2 and pair[0].distance < ratio * pair[1].distance))
+            and backward.get(pair[0].trainIdx) == pair[0].queryIdx]
+
+
+def ransac_pose(points1: np.ndarray, points2: np.ndarray, max_error: float,
+                seed: int = 0) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rigid motion ``X2 = R X1 + t`` from 3-D-3-D matches by COLMAP's LO-RANSAC
+    (pycolmap.estimate_rigid3d_robust); ``max_error`` in metres. Returns (R, t, inlier
+    mask).
+
+    Raises
+    ------
+    PoseEstimationError
+        If RANSAC finds no motion.
+    ImportError
+        Without pycolmap (``pip install 'liff[sfm]'``).
+    """
+    try:
+        import pycolmap
+    except ImportError as error:  # pragma: no cover - only without the extra
+        raise ImportError("liff.estimate_relative_pose needs pycolmap: pip install 'liff[sfm]'") from error
+    options = pycolmap.RANSACOptions()
+    options.max_error = float(max_error)
+    options.random_seed = int(seed)
+    rigid = pycolmap.estimate_rigid3d_robust(np.ascontiguousarray(points1, np.float64),
+                                             np.ascontiguousarray(points2, np.float64), options)
+    if rigid is None or rigid["num_inliers"] < MIN_MATCHES:
+        raise PoseEstimationError(f"RANSAC found no rigid motion among {len(points1)} 3-D matches")
+    matrix = np.asarray(rigid["tgt_from_src"].matrix())
+    return matrix[:, :3], matrix[:, 3], np.asarray(rigid["inlier_mask"], bool)
+
+
+def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.ndarray,
+                           keypoints2: Sequence[cv2.KeyPoint], descriptors2: np.ndarray,
+                           camera1: LightFieldCamera, camera2: Optional[LightFieldCamera] = None,
+                           ratio: float = 0.8, max_size_factor: Optional[float] = None,
+                           seed: int = 0, return_details: bool = False):
+    """Metric relative pose of two light field captures from their LiFF features.
+
+    Parameters
+    ----------
+    keypoints1, keypoints2 : sequence of cv2.KeyPoint
+        LiFF keypoints of each capture (centre-view pixels, slope in ``class_id``).
+    descriptors1, descriptors2 : ndarray, shape (N1, 128) and (N2, 128)
+    camera1 : LightFieldCamera
+    camera2 : LightFieldCamera, optional
+        Default: ``camera1`` (the same camera took both).
+    ratio : float in (0, 1]
+        Lowe's ratio test for the putative matches (:func:`liff.matching.ratio_matches`).
+    max_size_factor : float, optional
+        Scale-sensitive matching: reject candidates whose metric sizes differ by more
+        than this factor (see :func:`liff.matching.ratio_matches`).
+    seed : int
+        RANSAC's random seed (results are repeatable).
+    return_details : bool
+        Also return the :class:`RelativePose` (noise model, covariance, points).
+
+    Returns
+    -------
+    R : ndarray, shape (3, 3)
+    t : ndarray, shape (3,)
+        Metres, ``X2 = R @ X1 + t``: capture 1's centre-view camera frame (OpenCV: x
+        right, y down, z forward) to capture 2's. ``-R.T @ t`` is capture 2's centre
+        view in capture 1's frame.
+    matches : list of cv2.DMatch
+        The inlier matches (queryIdx into capture 1, trainIdx into capture 2).
+    details : RelativePose
+        Only with ``return_details``.
+
+    Raises
+    ------
+    ValueError
+        For malformed input (keypoint and descriptor counts, cameras).
+    PoseEstimationError (a ValueError)
+        Fewer than 3 matches with a depth, no RANSAC solution, fewer than 3 inliers after
+        refinement, or degenerate geometry (collinear points, all at infinity): never a
+        made-up pose.
+
+    Notes
+    -----
+    1. Putative matches: ratio test (optionally scale-sensitive).
+    2. RANSAC on the 3-D points (:meth:`LightFieldCamera.points_3d`) of the matches
+       with a depth, threshold 3% of their median depth (COLMAP's LO-RANSAC): only to
+       find a starting pose and inliers.
+    3. :func:`refine_relative_pose` from the RANSAC inliers: bundle adjustment of the
+       pose and points in the observations (x, y, slope) of both captures, with a
+       noise model fitted to the residuals and a chi-square inlier test.
+    4. Twice: :func:`guided_matches` with that pose (every feature searched where the
+       pose puts it, cross-checked), then :func:`refine_relative_pose` on them.
+    5. A last check that the inliers are not collinear.
+
+    Model, assumptions and limits: docs/METRIC.md.
+    """
+    camera2 = camera1 if camera2 is None else camera2
+    for name, camera in (("camera1", camera1), ("camera2", camera2)):
+        if not isinstance(camera, LightFieldCamera):
+            raise ValueError(f"{name} is a {type(camera).__name__}; expected a liff.LightFieldCamera")
+    obs1, obs2 = observations(keypoints1), observations(keypoints2)
+    for name, obs, desc in (("1", obs1, descriptors1), ("2", obs2, descriptors2)):
+        count = 0 if desc is None else np.shape(desc)[0]
+        if count != len(obs):
+            raise ValueError(f"capture {name}: {count} descriptors for {len(obs)} keypoints; "
+                             "expected one each")
+    sizes = None
+    if max_size_factor is not None:
+        sizes = (camera1.metric_size(keypoints1), camera2.metric_size(keypoints2))
+    matches = ratio_matches(descriptors1, descriptors2, ratio, metric_sizes=sizes,
+                            max_size_factor=max_size_factor)
+    q = np.array([m.queryIdx for m in matches], int)
+    tr = np.array([m.trainIdx for m in matches], int)
+    o1, o2 = obs1[q].reshape(-1, 3), obs2[tr].reshape(-1, 3)
+    X1, X2 = _back_project(camera1, o1), _back_project(camera2, o2)
+    finite = np.isfinite(X1).all(axis=1) & np.isfinite(X2).all(axis=1)
+    if finite.sum() < MIN_MATCHES:
+        raise PoseEstimationError(f"{int(finite.sum())} putative matches with a depth in both "
+                                  f"captures (of {len(matches)}); expected at least {MIN_MATCHES}")
+    threshold = 0.03 * float(np.median(np.concatenate([X1[finite, 2], X2[finite, 2]])))
+    R, t, mask = ransac_pose(X1[finite], X2[finite], threshold, seed)
+    inliers = np.zeros(len(matches), bool)
+    inliers[np.flatnonzero(finite)[mask]] = True
+    noise = NoiseModel.for_keypoints(list(keypoints1) + list(keypoints2))
+    c1, c2 = noise.covariates(keypoints1), noise.covariates(keypoints2)
+    pose = refine_relative_pose(o1, o2, camera1, camera2, R, t, inliers, noise, (c1[q], c2[tr]))
+    # Guided matching with that pose and a refinement on those matches, twice: the
+    # second round's gate comes from the better pose and noise of the first.
+    for _ in range(GUIDED_ROUNDS):
+        guided = guided_matches(obs1, descriptors1, obs2, descriptors2, camera1, camera2, pose,
+                                c1, c2, ratio, sizes, max_size_factor)
+        if len(guided) < MIN_MATCHES:
+            break
+        matches = guided
+        q = np.array([m.queryIdx for m in matches], int)
+        tr = np.array([m.trainIdx for m in matches], int)
+        pose = refine_relative_pose(obs1[q], obs2[tr], camera1, camera2, pose.rotation,
+                                    pose.translation, noise=pose.noise, covariates=(c1[q], c2[tr]))
+    inlier_points = pose.points[pose.inliers]
+    finite_points = inlier_points[np.isfinite(inlier_points).all(axis=1)]
+    if len(finite_points) >= 3:
+        spread = np.linalg.svd(finite_points - finite_points.mean(axis=0), compute_uv=False)
+        if spread[1] <= 1e-6 * spread[0]:
+            raise PoseEstimationError("degenerate geometry: the inlier points are collinear")
+    inlier_matches = [m for m, ok in zip(matches, pose.inliers) if ok]
+    if return_details:
+        return pose.rotation, pose.translation, inlier_matches, pose
+    return pose.rotation, pose.translation, inlier_matches

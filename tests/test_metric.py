@@ -1,0 +1,419 @@
+"""Calibrated light fields: LightFieldCamera, metric pose, scale-sensitive matching,
+metric SfM and the ``liff pose`` command (docs/METRIC.md)."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+import liff
+from liff import captures
+from liff.cli import main
+from liff.io import read_hci, read_pfm
+
+HCI = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "hci" / "cotton"
+# The captures' slopes span [-1, 1] from the back wall to the nearest box; the detector
+# searches a little beyond (the one place these tests choose a slope range).
+CAPTURE_SLOPES = dict(firstSlope=-1.25, lastSlope=1.25, numSlopes=21)
+
+
+def keypoint(x, y, slope, size=4.0, response=0.05):
+    return cv2.KeyPoint(float(x), float(y), size, -1, response, 0, int(round(slope * liff.SLOPE_SCALE)))
+
+
+def camera_of(capture):
+    k = capture.intrinsics
+    return liff.LightFieldCamera(k.focal, capture.baseline, (k.cx, k.cy), capture.focus_depth)
+
+
+def true_relative(capture, i, j):
+    a, b = capture.poses[i], capture.poses[j]
+    R = b.rotation @ a.rotation.T
+    return R, b.translation - R @ a.translation
+
+
+# --- the camera model ------------------------------------------------------------------
+
+def test_depth_and_slope_are_inverse_and_infinity_is_nan():
+    camera = liff.LightFieldCamera(500.0, 0.01, (100.0, 80.0), focus_distance=2.0)
+    z = np.array([0.5, 1.0, 2.0, 10.0, 1e6])
+    assert np.allclose(camera.depth(camera.slopes(z)), z, rtol=1e-9)
+    assert camera.slopes([2.0])[0] == pytest.approx(0.0)  # slope 0 at the focus distance
+    assert camera.slopes([1.0])[0] > 0 > camera.slopes([4.0])[0]  # nearer: larger slope
+    at_infinity = camera.slope_at_infinity
+    assert at_infinity == pytest.approx(-500 * 0.01 / 2.0)
+    assert np.isnan(camera.depth([at_infinity, at_infinity - 0.1])).all()
+    parallel = liff.LightFieldCamera(500.0, 0.01, (0.0, 0.0))
+    assert parallel.depth([1.0])[0] == pytest.approx(5.0)  # Z = f b / slope
+    assert np.isnan(parallel.depth([0.0, -1.0])).all()
+
+
+def test_points_project_back_to_their_keypoints_and_sizes_scale_with_depth():
+    camera = liff.LightFieldCamera(300.0, 0.04, (159.5, 119.5), focus_distance=5.0)
+    kps = [keypoint(10.0, 20.0, 0.5, size=6.0), keypoint(200.0, 100.0, -0.3, size=3.0),
+           keypoint(50.0, 50.0, -3.0)]  # beyond infinity
+    X = camera.points_3d(kps)
+    assert X.shape == (3, 3) and X.dtype == np.float64
+    z = camera.depth(liff.keypoint_slopes(kps))
+    assert np.allclose(X[:2, 2], z[:2])
+    uv = X[:2, :2] / X[:2, 2:] * 300.0 + [159.5, 119.5]
+    assert np.allclose(uv, [[10.0, 20.0], [200.0, 100.0]])
+    assert np.isnan(X[2]).all()
+    size = camera.metric_size(kps)
+    assert np.allclose(size[:2], np.array([6.0, 3.0]) * z[:2] / 300.0)
+    assert np.isnan(size[2])
+    assert camera.points_3d([]).shape == (0, 3)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(focal_length=0), "focal_length"), (dict(focal_length=-1), "focal_length"),
+    (dict(focal_length=float("nan")), "focal_length"), (dict(focal_length="a"), "focal_length"),
+    (dict(focal_length=math.inf), "focal_length"), (dict(baseline=0), "baseline"),
+    (dict(baseline=-0.1), "baseline"), (dict(principal_point=(1.0,)), "principal_point"),
+    (dict(principal_point=(1.0, float("nan"))), "principal_point"),
+    (dict(principal_point=None), "principal_point"), (dict(focus_distance=0), "focus_distance"),
+    (dict(focus_distance=-2), "focus_distance"), (dict(focus_distance=float("nan")), "focus_distance"),
+])
+def test_bad_camera_arguments_name_the_range(kwargs, message):
+    args = dict(focal_length=300.0, baseline=0.04, principal_point=(10.0, 10.0), focus_distance=5.0)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=f"{message}.*expected"):
+        liff.LightFieldCamera(**args)
+
+
+def test_keypoints_must_be_keypoints():
+    camera = liff.LightFieldCamera(300.0, 0.04, (0.0, 0.0))
+    with pytest.raises(ValueError, match="cv2.KeyPoint"):
+        camera.points_3d([(1.0, 2.0)])
+
+
+# --- HCI ---------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def cotton():
+    if not HCI.is_dir():
+        pytest.skip(f"HCI 'cotton' light field not found at {HCI}")
+    return HCI
+
+
+def test_hci_camera_reproduces_the_ground_truth_depth(cotton):
+    camera = liff.LightFieldCamera.from_hci(cotton)
+    assert camera.focal_length == pytest.approx(100.0 / 35.0 * 512)
+    assert camera.baseline == pytest.approx(0.025) and camera.focus_distance == pytest.approx(4.25)
+    assert camera.principal_point == (255.5, 255.5)
+    assert liff.LightFieldCamera.from_hci(cotton / "parameters.cfg") == camera
+    disparity = read_pfm(cotton / "gt_disp_lowres.pfm")
+    depth = read_pfm(cotton / "gt_depth_lowres.pfm")
+    relative = np.abs(camera.depth(disparity.ravel()) - depth.ravel()) / depth.ravel()
+    # The relation is exact; the two low-resolution maps differ only where they
+    # average pixels of several depths (object edges).
+    assert np.median(relative) < 1e-5
+    assert np.percentile(relative, 95) < 1e-4
+    # the reader returns the same camera
+    assert read_hci(cotton).camera == camera
+    assert liff.io.read_light_field(cotton).metadata["camera"] == camera
+
+
+def test_hci_camera_errors_name_file_and_entry(tmp_path):
+    with pytest.raises(ValueError, match="parameters.cfg: no such file"):
+        liff.LightFieldCamera.from_hci(tmp_path)
+    cfg = tmp_path / "parameters.cfg"
+    cfg.write_text("[intrinsics]\nfocal_length_mm = 100\nsensor_size_mm = 35\n"
+                   "image_resolution_x_px = 512\nimage_resolution_y_px = 512\n"
+                   "[extrinsics]\nbaseline_mm = 25\n")
+    with pytest.raises(ValueError, match=r"\[extrinsics\] focus_distance_m missing"):
+        liff.LightFieldCamera.from_hci(cfg)
+    cfg.write_text(cfg.read_text() + "focus_distance_m = -4\n")
+    with pytest.raises(ValueError, match=r"focus_distance_m = '-4'; expected a positive"):
+        liff.LightFieldCamera.from_hci(cfg)
+
+
+# --- Light Field Toolbox ------------------------------------------------------------------
+
+def toolbox_H(h11=2e-4, h13=-1e-5, h15=0.0, h31=-2e-4, h33=2.5e-3, h35=0.0, views=9, pixels=301):
+    """A plausible rectified H (square pixels, one baseline), recentred as the toolbox's
+    LFRecenterIntrinsics does: the centre sample (1-based) maps to s = t = u = v = 0."""
+    H = np.eye(5)
+    H[0, 0] = H[1, 1] = h11
+    H[0, 2] = H[1, 3] = h13
+    H[2, 0] = H[3, 1] = h31
+    H[2, 2] = H[3, 3] = h33
+    centre = np.array([(views - 1) / 2 + 1, (views - 1) / 2 + 1, (pixels - 1) / 2 + 1 + 7,
+                       (pixels - 1) / 2 + 1 - 4, 1.0])  # principal point off centre
+    H[:4, 4] = 0
+    H[:4, 4] = -(H @ centre)[:4]
+    return H
+
+
+def test_lftoolbox_camera_agrees_with_the_toolbox_rays():
+    """Slopes simulated from H's own ray model (a ray through pixel k of view i crosses
+    z = 0 at s and has direction u: X = s + u Z) give back the depth and position."""
+    H = toolbox_H()
+    camera = liff.LightFieldCamera.from_lftoolbox(H)
+    given = liff.LightFieldCamera.from_lftoolbox(H, views=(9, 9))
+    assert np.allclose([given.focal_length, given.baseline, given.focus_distance, *given.principal_point],
+                       [camera.focal_length, camera.baseline, camera.focus_distance, *camera.principal_point])
+    assert camera.principal_point == pytest.approx((157.0, 146.0))  # the centre pixel + (7, -4)
+    z0 = -H[0, 2] / H[2, 2]  # the views' centres of projection lie at z = -H13 / H33
+    point = np.array([0.05, -0.03, 0.6])  # toolbox frame, metres
+    i = np.arange(1, 10, dtype=float)
+    # X = (H11 i + H13 k + H15) + (H31 i + H33 k + H35) Z, solved for k (same for y with l)
+    k = (point[0] - H[0, 0] * i - H[0, 4] - (H[2, 0] * i + H[2, 4]) * point[2]) / (H[0, 2] + H[2, 2] * point[2])
+    l = (point[1] - H[1, 1] * i - H[1, 4] - (H[3, 1] * i + H[3, 4]) * point[2]) / (H[1, 3] + H[3, 3] * point[2])
+    slope_x, slope_y = -np.polyfit(i, k, 1)[0], -np.polyfit(i, l, 1)[0]  # x_view = x - slope (s - s_c)
+    assert slope_x == pytest.approx(slope_y)
+    kp = keypoint(k[4] - 1, l[4] - 1, slope_x)  # centre view i = 5, 0-based pixels
+    assert camera.depth([slope_x])[0] == pytest.approx(point[2] - z0, rel=1e-9)
+    # (class_id keeps the slope to 1/65536 px per view: 3e-5 relative in depth here)
+    assert camera.points_3d([kp])[0] == pytest.approx(point - [0, 0, z0], rel=1e-4)
+    # Focus: -H31 / baseline; H31 = 0 is a camera focused at infinity
+    assert camera.focus_distance == pytest.approx(camera.baseline / 2e-4)
+    assert liff.LightFieldCamera.from_lftoolbox(toolbox_H(h31=0.0)).focus_distance == math.inf
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda H: H[:4], "shape"), (lambda H: np.where(H == 1, np.nan, H), "non-finite"),
+    (lambda H: _set(H, (0, 1), 1e-4), "mixes horizontal"), (lambda H: _set(H, (4, 0), 1.0), "last row"),
+    (lambda H: _set(H, (2, 2), -2.5e-3), "mirrored"), (lambda H: _set(H, (3, 3), 3e-3), "differs between s and t"),
+    (lambda H: _set(H, (0, 0), -2e-4), "baseline"),
+])
+def test_lftoolbox_refuses_what_the_model_cannot_take(change, message):
+    with pytest.raises(ValueError, match=message):
+        liff.LightFieldCamera.from_lftoolbox(change(toolbox_H()))
+
+
+def _set(H, index, value):
+    H = H.copy()
+    H[index] = value
+    return H
+
+
+# --- scale-sensitive matching ------------------------------------------------------------
+
+def test_metric_size_test_lets_the_right_candidate_win():
+    rng = np.random.default_rng(0)
+    b = rng.random((3, 128)).astype(np.float32) * 100
+    a = b[:1] + 0.5  # nearest to b[0] ...
+    b[1] = a[0] + 0.45  # ... but a look-alike of another size is a little nearer
+    sizes = (np.array([0.10]), np.array([0.10, 0.40, 0.12]))
+    assert liff.matching.ratio_matches(a, b, 0.8) == []  # ambiguous: the ratio test drops it
+    matches = liff.matching.ratio_matches(a, b, 0.8, metric_sizes=sizes, max_size_factor=1.5)
+    assert [(m.queryIdx, m.trainIdx) for m in matches] == [(0, 0)]
+    # unknown sizes (NaN, beyond infinity) are not rejected
+    unknown = (np.array([np.nan]), sizes[1])
+    assert liff.matching.ratio_matches(a, b, 0.8, metric_sizes=unknown, max_size_factor=1.5) == []
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(max_size_factor=1.0), "expected a finite factor > 1"),
+    (dict(max_size_factor=float("inf")), "expected a finite factor > 1"),
+    (dict(metric_sizes=(np.ones(1), np.ones(3))), "both"),
+    (dict(metric_sizes=(np.ones(2), np.ones(3)), max_size_factor=2.0), "one each"),
+    (dict(metric_sizes=(-np.ones(1), np.ones(3)), max_size_factor=2.0), "positive"),
+])
+def test_scale_sensitive_matching_refuses_bad_options(kwargs, message):
+    d = np.eye(3, 128, dtype=np.float32)
+    with pytest.raises(ValueError, match=message):
+        liff.matching.ratio_matches(d[:1], d, 0.8, **kwargs)
+
+
+# --- metric relative pose ----------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def pose_capture():
+    """Three poses (10 degrees apart) of a box scene, 5x5 views of 240x180, with features."""
+    capture = captures.make_capture(seed=4, n_poses=3, views=(5, 5), size=(180, 240), focal=240.0,
+                                    span_degrees=20.0, supersample=1)
+    detector = liff.LiFF.create(contrastThreshold=0.02, **CAPTURE_SLOPES)
+    features = [detector.detectAndCompute(lf) for lf in capture.light_fields]
+    return capture, features
+
+
+def test_relative_pose_has_absolute_scale(pose_capture):
+    capture, features = pose_capture
+    camera = camera_of(capture)
+    for i, j in ((0, 1), (0, 2)):
+        R_true, t_true = true_relative(capture, i, j)
+        (k1, d1), (k2, d2) = features[i], features[j]
+        R, t, matches = liff.estimate_relative_pose(k1, d1, k2, d2, camera)
+        assert R.shape == (3, 3) and t.shape == (3,)
+        assert np.allclose(R @ R.T, np.eye(3), atol=1e-9)
+        assert np.linalg.norm(t - t_true) <= 0.02 * np.linalg.norm(t_true)
+        assert np.degrees(np.linalg.norm(cv2.Rodrigues(R @ R_true.T)[0])) <= 0.5
+        assert len(matches) >= 50 and all(isinstance(m, cv2.DMatch) for m in matches)
+        # the inliers agree with the true pose
+        X1 = camera.points_3d([k1[m.queryIdx] for m in matches]) @ R_true.T + t_true
+        uv = X1[:, :2] / X1[:, 2:] * camera.focal_length + camera.principal_point
+        err = np.linalg.norm(uv - [k2[m.trainIdx].pt for m in matches], axis=1)
+        assert np.median(err) < 1.0
+
+
+def test_relative_pose_of_a_capture_with_itself_is_the_identity(pose_capture):
+    capture, features = pose_capture
+    k, d = features[1]
+    R, t, matches = liff.estimate_relative_pose(k, d, k, d, camera_of(capture))
+    assert np.allclose(R, np.eye(3), atol=1e-6) and np.linalg.norm(t) < 1e-6
+    assert len(matches) > 0.5 * len(k)
+
+
+def test_pose_estimation_refuses_rather_than_guesses():
+    camera = liff.LightFieldCamera(300.0, 0.04, (100.0, 100.0))
+    rng = np.random.default_rng(1)
+    d = (rng.random((40, 128)) * 100).astype(np.float32)
+    two = [keypoint(10, 10, 1.0), keypoint(50, 60, 2.0)]
+    with pytest.raises(liff.PoseEstimationError, match="at least 3"):
+        liff.estimate_relative_pose(two, d[:2], two, d[:2], camera)
+    # points on one line (one 3-D line, same features in both captures)
+    line = [keypoint(10 + 4 * i, 20 + 2 * i, 0.5 + 0.02 * i) for i in range(40)]
+    with pytest.raises(liff.PoseEstimationError, match="degenerate|no rigid motion"):
+        liff.estimate_relative_pose(line, d, line, d, camera)
+    # every slope at or beyond infinity: no depth at all
+    far = [keypoint(rng.uniform(0, 200), rng.uniform(0, 200), -0.5) for _ in range(40)]
+    with pytest.raises(liff.PoseEstimationError, match="depth"):
+        liff.estimate_relative_pose(far, d, far, d, camera)
+    assert issubclass(liff.PoseEstimationError, ValueError)
+
+
+def test_pose_estimation_checks_its_input():
+    camera = liff.LightFieldCamera(300.0, 0.04, (100.0, 100.0))
+    kps = [keypoint(10, 10, 1.0)] * 3
+    d = np.ones((3, 128), np.float32)
+    with pytest.raises(ValueError, match="expected a liff.LightFieldCamera"):
+        liff.estimate_relative_pose(kps, d, kps, d, "camera")
+    with pytest.raises(ValueError, match="2 descriptors for 3 keypoints"):
+        liff.estimate_relative_pose(kps, d, kps, d[:2], camera)
+
+
+# --- metric SfM and the command line -----------------------------------------------------
+
+@pytest.fixture(scope="module")
+def pose_files(pose_capture, tmp_path_factory):
+    capture, _ = pose_capture
+    folder = tmp_path_factory.mktemp("poses")
+    paths = []
+    for i, lf in enumerate(capture.light_fields):
+        paths.append(str(folder / f"pose{i}.npy"))
+        np.save(paths[-1], lf)
+    return capture, paths
+
+
+def camera_options(camera):
+    return ["--camera", repr(camera.focal_length), repr(camera.baseline),
+            *map(repr, camera.principal_point), "--focus-distance", repr(camera.focus_distance)]
+
+
+def detector_options():
+    return ["--contrast-threshold", "0.02", "--first-slope", "-1.25", "--last-slope", "1.25",
+            "--num-slopes", "21"]
+
+
+def test_cli_pose_prints_and_writes_the_metric_pose(pose_files, tmp_path, capsys):
+    capture, paths = pose_files
+    out = tmp_path / "pose.json"
+    assert main(["pose", paths[0], paths[1], *camera_options(camera_of(capture)),
+                 *detector_options(), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "inlier matches" in printed and "|t| =" in printed
+    result = json.loads(out.read_text())
+    _, t_true = true_relative(capture, 0, 1)
+    assert np.linalg.norm(np.array(result["t"]) - t_true) <= 0.02 * np.linalg.norm(t_true)
+
+
+def test_cli_pose_needs_a_camera(pose_files, capsys):
+    _, paths = pose_files
+    assert main(["pose", paths[0], paths[1], *detector_options()]) == 1
+    assert "no camera calibration" in capsys.readouterr().err
+    assert main(["pose", paths[0], paths[1], "--focus-distance", "3"]) == 1
+    assert "--focus-distance goes with --camera" in capsys.readouterr().err
+
+
+def test_cli_sfm_with_a_camera_is_in_metres(pose_files, tmp_path, capsys):
+    import pycolmap
+
+    capture, paths = pose_files
+    workspace = tmp_path / "ws"
+    assert main(["sfm", *paths, "--workspace", str(workspace), "--preprocess",
+                 *camera_options(camera_of(capture)), *detector_options()]) == 0
+    printed = capsys.readouterr().out
+    scale = float(re.search(r"scaled to metres: x ([\d.e+-]+)", printed).group(1))
+    assert scale > 0
+    model = pycolmap.Reconstruction(str(workspace / "sparse" / "0"))
+    # the calibration's intrinsics are kept by bundle adjustment (COLMAP's pixels: +0.5)
+    camera = camera_of(capture)
+    assert list(next(iter(model.cameras.values())).params) == pytest.approx(
+        [camera.focal_length, camera.principal_point[0] + 0.5, camera.principal_point[1] + 0.5])
+    centres = {model.image(i).name: model.image(i).projection_center() for i in model.reg_image_ids()}
+    assert len(centres) == 3
+    est = [centres[f"pose{i}.png"] for i in range(3)]
+    true = [p.centre for p in capture.poses]
+    for a, b in ((0, 1), (1, 2), (0, 2)):
+        ratio = np.linalg.norm(est[a] - est[b]) / np.linalg.norm(true[a] - true[b])
+        assert ratio == pytest.approx(1.0, abs=0.03)
+
+
+def write_hci_scene(folder, light_field, camera, width=None):
+    """An HCI-style scene folder (input_CamNNN.png, parameters.cfg) of a grey light field
+    in [0, 1], its parameters.cfg describing ``camera`` (principal point at the centre)."""
+    T, S, V, U = light_field.shape
+    folder.mkdir()
+    for t in range(T):
+        for s in range(S):
+            view = np.clip(np.round(light_field[t, s] * 255), 0, 255).astype(np.uint8)
+            cv2.imwrite(str(folder / f"input_Cam{t * S + s:03d}.png"), cv2.merge([view] * 3))
+    sensor_mm = 35.0
+    (folder / "parameters.cfg").write_text(
+        f"[intrinsics]\nfocal_length_mm = {camera.focal_length * sensor_mm / max(U, V)!r}\n"
+        f"sensor_size_mm = {sensor_mm}\nimage_resolution_x_px = {width or U}\n"
+        f"image_resolution_y_px = {V}\n[extrinsics]\nnum_cams_x = {S}\nnum_cams_y = {T}\n"
+        f"baseline_mm = {camera.baseline * 1000!r}\nfocus_distance_m = {camera.focus_distance!r}\n")
+
+
+def test_cli_pose_takes_the_camera_from_hci_scenes(pose_capture, tmp_path, capsys):
+    capture, _ = pose_capture
+    camera = camera_of(capture)
+    for i in (0, 1):
+        write_hci_scene(tmp_path / f"scene{i}", capture.light_fields[i], camera)
+    read = read_hci(tmp_path / "scene0").camera
+    assert read.focal_length == pytest.approx(camera.focal_length)
+    assert read.principal_point == camera.principal_point
+    out = tmp_path / "pose.json"
+    assert main(["pose", str(tmp_path / "scene0"), str(tmp_path / "scene1"), *detector_options(),
+                 "--out", str(out)]) == 0
+    _, t_true = true_relative(capture, 0, 1)
+    t = np.array(json.loads(out.read_text())["t"])
+    assert np.linalg.norm(t - t_true) <= 0.02 * np.linalg.norm(t_true)
+    capsys.readouterr()
+    # parameters.cfg that contradicts the views is refused by the reader
+    write_hci_scene(tmp_path / "bad", capture.light_fields[0][:2, :2], camera, width=512)
+    with pytest.raises(ValueError, match="image_resolution 512x180 differs from the views' 240x180"):
+        read_hci(tmp_path / "bad")
+
+
+def test_camera_options_read_a_toolbox_matrix_and_refuse_bad_files(tmp_path):
+    import argparse
+
+    from liff.cli.calibration import add_camera_options, camera_from_args
+
+    parser = argparse.ArgumentParser()
+    add_camera_options(parser)
+    H = toolbox_H()
+    text = tmp_path / "H.txt"
+    np.savetxt(text, H, delimiter=",")  # as MATLAB's writematrix would
+    expected = liff.LightFieldCamera.from_lftoolbox(H)
+    assert camera_from_args(parser.parse_args(["--lftoolbox", str(text)])) == expected
+    np.save(tmp_path / "H.npy", H)
+    assert camera_from_args(parser.parse_args(["--lftoolbox", str(tmp_path / "H.npy")])) == expected
+    assert camera_from_args(parser.parse_args([])) is None
+    (tmp_path / "bad.txt").write_text("1 2 x\n")
+    with pytest.raises(ValueError, match="bad.txt: unreadable"):
+        camera_from_args(parser.parse_args(["--lftoolbox", str(tmp_path / "bad.txt")]))
+    with pytest.raises(ValueError, match="no such file"):
+        camera_from_args(parser.parse_args(["--lftoolbox", str(tmp_path / "none.txt")]))
+    with pytest.raises(ValueError, match="focal_length"):
+        camera_from_args(parser.parse_args(["--camera", "-1", "0.1", "0", "0"]))

@@ -192,7 +192,11 @@ class LiFF_Impl : public LiFF {
 
 SlopePlan LiFF_Impl::planSlices(const Parameters& parameters, const LightField& lf, int batch,
                                 const std::vector<cv::KeyPoint>* describing) const {
-  if (!detail::automaticRange(parameters)) return detail::uniformPlan(parameters, lf.T, lf.S);
+  if (!detail::automaticRange(parameters)) {
+    SlopePlan plan = detail::uniformPlan(parameters, lf.T, lf.S);
+    detail::setBlurTarget(plan, lf.T, lf.S, false);
+    return plan;
+  }
   // compute() describes on the grid detection uses, without a survey (the survey sets
   // only which grid slices are built), unless numSlopes spreads slices over its range.
   if (describing && (lf.T > 1 || lf.S > 1) && parameters.numSlopes == 0) {

@@ -93,7 +93,6 @@ SlopePlan uniformPlan(const Parameters& p, int T, int S) {
   plan.searched.assign(n, true);
   plan.origin = plan.slopes.front();
   plan.step = n > 1 ? (p.lastSlope - p.firstSlope) / (n - 1) : 0.0;
-  setBlurTarget(plan, T, S, false);
   return plan;
 }
 

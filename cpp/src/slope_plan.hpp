@@ -56,7 +56,8 @@ bool automaticRange(const Parameters& parameters);
 /// pixel of parallax apart at the outermost view (spacing <= 2 / (max(T, S) - 1);
 /// for [-1, 1] the paper's rule, the smallest odd number >= max(T, S)); a single view
 /// has the one slope (firstSlope + lastSlope) / 2. Throws cv::Exception
-/// (StsOutOfRange) when the slopes are out of order, infinite or too many.
+/// (StsOutOfRange) when the slopes are out of order, infinite or too many. Its
+/// blurTarget is left 0: setBlurTarget before rendering.
 SlopePlan uniformPlan(const Parameters& parameters, int T, int S);
 
 }  // namespace detail

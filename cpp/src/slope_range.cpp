@@ -313,7 +313,9 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
   Parameters uniform = p;
   uniform.firstSlope = std::max(lo, (double(*searched.begin()) - 0.5) * unit);
   uniform.lastSlope = std::min(hi, (double(*searched.rbegin()) + 0.5) * unit);
-  return uniformPlan(uniform, lf.T, lf.S);
+  SlopePlan plan = uniformPlan(uniform, lf.T, lf.S);
+  setBlurTarget(plan, lf.T, lf.S, false);
+  return plan;
 }
 
 SlopePlan describingPlan(int T, int S, const std::vector<double>& slopes) {

@@ -18,11 +18,14 @@ namespace {
 /// Coarsest decimation of the survey, and the one it ends at when views allow.
 constexpr int kCoarsestDecimation = 16;
 constexpr int kFinestDecimation = 4;
-/// The coarsest level needs views of at least this many pixels on the smaller side...
-constexpr int kCoarsestSurveyView = 32;
+/// The coarsest level needs views of at least this many pixels on the smaller side
+/// (smaller, fine textures vanish and SIFT's image border takes most of the view)...
+constexpr int kCoarsestSurveyView = 40;
 /// ...and the finest keeps this many where it can (at most kFinestDecimation times
-/// smaller than the light field), so that small structure stays visible to it.
+/// smaller than the light field), so that small structure stays visible to it; views
+/// under twice kSmallestSurveyView are not surveyed.
 constexpr int kFinestSurveyView = 64;
+constexpr int kSmallestSurveyView = 32;
 /// A finer level searches within this many of the coarser level's spacings of its slopes.
 constexpr double kCandidateReach = 1.0;
 /// Features whose views add up less coherently than minCoherence(n) are ghosts or noise:
@@ -223,7 +226,7 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
   const int side = std::min(lf.V, lf.U);
   int finest = kFinestDecimation;
   while (finest > 2 && side / finest < kFinestSurveyView) finest /= 2;
-  if (side / finest < kCoarsestSurveyView) return survey;  // views too small to survey
+  if (side / finest < kSmallestSurveyView) return survey;  // views too small to survey
   int factor = finest;
   while (factor < kCoarsestDecimation && side / (factor * 2) >= kCoarsestSurveyView) factor *= 2;
   // The levels' light fields, finest first, each from the last (one pass over the

@@ -123,8 +123,15 @@ def detector_parameters(args: argparse.Namespace) -> dict:
     return {p.name: getattr(args, p.name) for p in PARAMETERS}
 
 
+#: setMemoryLimitMB of the detectors made here (0: LiFF's default, the memory available
+#: when a call starts); liff.batch sets it on a Dask worker from the worker's limit.
+memory_limit_mb = 0
+
+
 def make_detector(parameters: dict) -> LiFF:
-    return LiFF.create(**parameters)
+    detector = LiFF.create(**parameters)
+    detector.setMemoryLimitMB(memory_limit_mb)
+    return detector
 
 
 def load_light_field(path: str, options: dict, preprocess: bool) -> np.ndarray:
@@ -185,7 +192,7 @@ def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] 
     found: List[str] = []
     for path in paths:
         if not os.path.exists(path) and glob.has_magic(path):
-            matches = sorted(glob.glob(path))
+            matches = sorted(glob.glob(path, recursive=True))
             if not matches:
                 raise ValueError(f"{path}: no file matches the pattern; expected light fields")
             found += matches

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import argparse
 import os
-from typing import List, Optional
+import sys
+import time
+from typing import List, NamedTuple, Optional, Tuple
 
 import cv2
 
-from .. import __version__
+from .. import __version__, batch
 from ..feature_file import Features, centre_view, read_meta, save_features
 from ..io._shared import write_image
 from ..outputs import atomic_output, refuse_inputs
@@ -24,19 +26,33 @@ def add_parser(sub) -> None:
                     "descriptors; the centre view; how they were made). Several inputs: "
                     "--out is a folder. An output that exists is kept if it was made with the "
                     "same settings from the same input, redone otherwise (and said so).")
-    p.add_argument("paths", nargs="+", metavar="PATH", help="light field files or folders")
+    p.add_argument("paths", nargs="*", metavar="PATH",
+                   help="light fields (files or folders of views), folders of light fields, or "
+                        "quoted glob patterns")
+    p.add_argument("--from-list", default=None, metavar="FILE",
+                   help="a text file of more inputs, one a line (# comments), so a dataset "
+                        "need not fit on the command line")
     p.add_argument("--out", default=None,
                    help="output .npz (one input) or folder (default: <name>.npz here)")
     p.add_argument("--plot", default=None,
                    help="also draw the features over the centre view: a .png (one input) or "
                         "a folder")
-    p.add_argument("--workers", type=int, default=1, help="processes for many inputs (default 1)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="local processes for many inputs (default 1)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run each light field as a task on the Dask cluster of this scheduler "
+                        "(e.g. tcp://10.0.0.5:8786; pip install 'liff[dask]'); see "
+                        "docs/BATCH.md")
+    p.add_argument("--manifest", default=None, metavar="CSV",
+                   help="write the run's manifest (input, output, status, features, slope "
+                        "range, seconds, error) here (default for several inputs: "
+                        "OUT/manifest-<UTC time>.csv)")
     p.add_argument("--overwrite", action="store_true",
                    help="redo outputs that exist even if made with the same settings, and "
                         "replace files at the output paths that are not liff feature files")
     common.add_reader_options(p)
     common.add_detector_options(p)
-    p.set_defaults(run=run)
+    p.set_defaults(run=run, parser=p)
 
 
 def destination(given, path: str, suffix: str, many: bool, force_suffix: bool = True) -> str:
@@ -60,21 +76,36 @@ def settings(path: str, options: dict, preprocess: bool, parameters: dict) -> di
                 parameters=parameters, liff_version=__version__)
 
 
+class Detected(NamedTuple):
+    """What :func:`detect_one` found: the feature count and the slope range searched."""
+
+    features: int
+    slope_range: Tuple[float, float]
+
+
+def used_slope_range(detector) -> Tuple[float, float]:
+    """The slope range the detector searched in its last call.
+
+    TODO(automatic slope range): the one place to read the range actually used once
+    the detector has a getter for it; until then its firstSlope and lastSlope."""
+    return (detector.getFirstSlope(), detector.getLastSlope())
+
+
 def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
-               parameters: dict) -> int:
-    """Reads, detects and writes one light field; returns the feature count."""
+               parameters: dict) -> Detected:
+    """Reads, detects and writes one light field; returns what it found."""
     light_field = common.load_light_field(path, options, preprocess)
     detector = common.make_detector(parameters)
     keypoints, descriptors = detector.detectAndCompute(light_field, None)
+    slope_range = used_slope_range(detector)
     meta = dict(settings(path, options, preprocess, parameters), shape=list(light_field.shape))
     view = centre_view(light_field)
     with atomic_output(out) as partial:
         save_features(partial, Features(tuple(keypoints), descriptors, view, meta))
     if plot:
-        slope_range = (parameters["firstSlope"], parameters["lastSlope"])
         with atomic_output(plot) as partial:
             write_image(partial, draw_keypoints_by_slope(view, keypoints, slope_range))
-    return len(keypoints)
+    return Detected(len(keypoints), slope_range)
 
 
 def changes(out: str, plot: Optional[str], wanted: dict) -> Optional[List[str]]:
@@ -105,13 +136,24 @@ def changes(out: str, plot: Optional[str], wanted: dict) -> Optional[List[str]]:
     return differ or None
 
 
-def plan(args: argparse.Namespace) -> tuple:
-    """(jobs to run, outputs kept, {output: reasons} of outputs to redo)."""
+def plan(args: argparse.Namespace, options: dict, parameters: dict) -> tuple:
+    """(tasks to run, outcomes of outputs kept, {output: reasons} of those redone) for
+    ``args.paths`` (and ``--from-list``), ``--out``, ``--plot`` and ``--overwrite``.
+
+    Raises
+    ------
+    ValueError
+        Before anything is written: outputs over inputs, colliding outputs, a file name
+        for several inputs, a plot OpenCV cannot write, a foreign file in the way.
+    """
+    args.paths = common.expand_inputs(args.paths, options, args.from_list)
+    if not args.paths:
+        raise ValueError("no input; expected light fields as PATH arguments or --from-list")
     many = len(args.paths) > 1
     common.check_output_folder(args.out, ".npz", len(args.paths), "--out")
     if args.plot:
         common.check_output_folder(args.plot, ".png", len(args.paths), "--plot")
-    jobs, kept, redo, seen = [], 0, {}, {}
+    tasks, kept, redo, seen = [], [], {}, {}
     for path in args.paths:
         out = destination(args.out, path, ".npz", many)
         plot = destination(args.plot, path, ".png", many, force_suffix=False) if args.plot else None
@@ -125,28 +167,69 @@ def plan(args: argparse.Namespace) -> tuple:
         refuse_inputs([out], args.paths, "--out")
         if plot:
             refuse_inputs([plot], args.paths, "--plot")
-        job = (path, out, plot, common.reader_options(args), args.preprocess,
-               common.detector_parameters(args))
-        stale = [] if args.overwrite else changes(out, plot, settings(*job[:1], *job[3:]))
+        task = batch.Task(path, out, plot, options, args.preprocess, parameters)
+        stale = [] if args.overwrite else changes(out, plot, settings(path, options, args.preprocess,
+                                                                        parameters))
         if stale is None:
-            kept += 1
+            kept.append(batch.Outcome(path, out, "kept"))
             continue
         if stale:
             redo[out] = stale
-        jobs.append(job)
-    return jobs, kept, redo
+        tasks.append(task)
+    return tasks, kept, redo
+
+
+def run_tasks(tasks: List[batch.Task], args: argparse.Namespace) -> List[batch.Outcome]:
+    """Runs the tasks on the Dask cluster of ``--scheduler`` or on ``--workers`` local
+    processes, with a progress bar; failures are reported as they come."""
+    def report(outcome: batch.Outcome) -> None:
+        if outcome.error:
+            bar.write(f"liff detect: {outcome.input}: {common.name_flags(outcome.error)}",
+                      file=sys.stderr)
+        bar.update()
+
+    if args.scheduler:
+        with common.progress(desc="liff detect", total=len(tasks)) as bar:
+            return batch.run(tasks, args.scheduler, progress=report)
+    outcomes, _ = common.run_batch(batch.run_task, [(task,) for task in tasks], args.workers,
+                                   "detect", label=lambda job: job[0].source)
+    outcomes = [o or batch.Outcome(t.source, t.output, "failed", error="reported above")
+                for t, o in zip(tasks, outcomes)]
+    for outcome in outcomes:
+        if outcome.error and outcome.error != "reported above":
+            print(f"liff detect: {outcome.input}: {common.name_flags(outcome.error)}",
+                  file=sys.stderr)
+    return outcomes
+
+
+def manifest_path(args: argparse.Namespace) -> Optional[str]:
+    """``--manifest``, else ``OUT/manifest-<UTC time>.csv`` for a batch (several inputs,
+    or --scheduler) into a folder ``--out``."""
+    batch_run = len(args.paths) > 1 or args.scheduler
+    if args.manifest or not (batch_run and args.out and os.path.isdir(args.out)):
+        return args.manifest
+    return os.path.join(args.out, time.strftime("manifest-%Y%m%d-%H%M%S.csv", time.gmtime()))
 
 
 def run(args: argparse.Namespace) -> int:
-    jobs, kept, redo = plan(args)
+    if not args.paths and not args.from_list:
+        args.parser.error("the following arguments are required: PATH (or --from-list FILE)")
+    tasks, kept, redo = plan(args, common.reader_options(args), common.detector_parameters(args))
     for out, reasons in redo.items():
         print(f"redoing {out}, out of date: {'; '.join(reasons)}")
-    counts, failures = common.run_batch(detect_one, jobs, args.workers, "detect",
-                                        label=lambda job: job[0])
-    for job, count in zip(jobs, counts):
-        if count is not None:
-            print(f"{job[0]}: {count} features -> {job[1]}" + (f", {job[2]}" if job[2] else ""))
+    outcomes = run_tasks(tasks, args)
+    for task, outcome in zip(tasks, outcomes):
+        if outcome.status == "done":
+            print(f"{outcome.input}: {outcome.features} features -> {outcome.output}"
+                  + (f", {task.plot}" if task.plot else ""))
     if kept:
-        print(f"skipped {kept} input(s) whose outputs exist, made with the same settings "
+        print(f"skipped {len(kept)} input(s) whose outputs exist, made with the same settings "
               "(--overwrite to redo them)")
-    return 1 if failures else 0
+    failed = sum(outcome.status == "failed" for outcome in outcomes)
+    manifest = manifest_path(args)
+    if manifest and (tasks or args.manifest):
+        batch.write_manifest(manifest, outcomes + kept)
+        print(f"manifest: {manifest}")
+    if failed:
+        print(f"liff detect: {failed} of {len(tasks)} light field(s) failed", file=sys.stderr)
+    return 1 if failed else 0

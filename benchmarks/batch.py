@@ -9,7 +9,12 @@ same tasks run on: one local worker with one LiFF thread; one with both cores; t
 local worker processes of one thread each (`liff detect --workers 2`); and a Dask
 LocalCluster of two one-thread worker processes (`--scheduler`), started once before
 the rounds. The load of this shared machine drifts, so rounds interleave the set-ups
-and the figures are medians over rounds.
+and the figures are medians over rounds; the load average before each run is printed.
+
+Besides wall times, each task reports its own seconds and CPU seconds (liff.batch's
+Outcome). A set-up's gap per task, wall x workers / tasks - mean task seconds, is the
+time a worker spent not running a task (scheduling, transfers, the tail of the run);
+Dask's overhead per task is its gap less the local pool's, in the same round.
 """
 
 from __future__ import annotations
@@ -65,8 +70,9 @@ def tasks_into(paths: list, folder: str) -> list:
                        False, parameters) for p in paths]
 
 
-def timed_run(name: str, tasks: list, client) -> float:
-    """Wall time of one set-up over ``tasks``; checks that every task succeeded."""
+def timed_run(name: str, tasks: list, client) -> tuple:
+    """(wall seconds, task seconds, task CPU seconds) of one set-up over ``tasks``;
+    checks that every task succeeded."""
     start = time.perf_counter()
     if name == "dask, 2 workers x 1 thread":
         outcomes = batch.run(tasks, client)
@@ -79,39 +85,53 @@ def timed_run(name: str, tasks: list, client) -> float:
     failed = [o for o in outcomes if o is None or o.status != "done"]
     if failed:
         raise RuntimeError(f"{name}: {len(failed)} task(s) failed: {failed[:1]}")
-    return wall
+    return wall, sum(o.seconds for o in outcomes), sum(o.cpu_seconds for o in outcomes)
 
 
 SETUPS = ("local, 1 worker x 1 thread", "local, 1 worker x 2 threads",
           "local, 2 workers x 1 thread", "dask, 2 workers x 1 thread")
 
 
-def report(walls: dict, count: int, liff_1: float, liff_2: float, startup: float) -> None:
-    median = {name: statistics.median(times) for name, times in walls.items()}
+WORKERS = {SETUPS[0]: 1, SETUPS[1]: 1, SETUPS[2]: 2, SETUPS[3]: 2}
+
+
+def report(runs: dict, count: int, liff_1: float, liff_2: float, startup: float) -> None:
+    """Prints the table and the targets from ``runs``: set-up -> list of (wall, task
+    seconds, task CPU seconds, load average), one per round."""
+    median = {name: statistics.median(r[0] for r in rows) for name, rows in runs.items()}
+    gap = {name: statistics.median(r[0] * WORKERS[name] / count - r[1] / count for r in rows)
+           for name, rows in runs.items()}
+    cpu = {name: statistics.median(r[2] / count for r in rows) for name, rows in runs.items()}
     base = median[SETUPS[0]]
     print(f"\n{count} light fields of {ILLUM_SHAPE} (uint8 .npy); medians over "
-          f"{len(walls[SETUPS[0]])} rounds")
-    print("| set-up | seconds | light fields / s | vs 1 worker x 1 thread | rounds |")
-    print("|---|---|---|---|---|")
+          f"{len(runs[SETUPS[0]])} rounds")
+    print("| set-up | seconds | light fields / s | vs 1 x 1 | CPU s / light field | gap s / task "
+          "| rounds (s, load average before) |")
+    print("|---|---|---|---|---|---|---|")
     for name in SETUPS:
-        rounds = ", ".join(f"{t:.1f}" for t in walls[name])
+        rounds = ", ".join(f"{r[0]:.1f} ({r[3]:.1f})" for r in runs[name])
         print(f"| {name} | {median[name]:.1f} | {count / median[name]:.2f} | "
-              f"{base / median[name]:.2f}x | {rounds} |")
-    pool, dask = median[SETUPS[2]], median[SETUPS[3]]
-    overhead = (dask - pool) * 2 / count
+              f"{base / median[name]:.2f}x | {cpu[name]:.2f} | {gap[name]:.3f} | {rounds} |")
+    pool, dask = SETUPS[2], SETUPS[3]
+    per_round = [(d[0] - p[0]) * 2 / count for d, p in zip(runs[dask], runs[pool])]
+    overhead = statistics.median(d[0] * 2 / count - d[1] / count - (p[0] * 2 / count - p[1] / count)
+                                 for d, p in zip(runs[dask], runs[pool]))
     print(f"\nLiFF's own time per light field (detectAndCompute, best of 3): {liff_1:.3f} s on "
           f"1 thread, {liff_2:.3f} s on 2")
-    print(f"throughput, 2 local workers / 1 worker (1 thread each) = {base / pool:.2f}x "
-          f"(target >= 1.8); / 1 worker on both cores = {median[SETUPS[1]] / pool:.2f}x")
-    print(f"Dask overhead per task = (dask - local pool) x 2 workers / {count} = "
-          f"{overhead * 1000:.0f} ms = {100 * overhead / liff_1:.1f}% of LiFF's own time "
-          f"(target <= 5%); LocalCluster start-up {startup:.1f} s (once per run)")
-    per_light_field = pool * 2 / count  # core-seconds per light field, I/O included
-    print(f"\nmeasured cost: {per_light_field:.2f} core-seconds per light field (read, detect, "
-          f"write); the paper's {PAPER_LIGHT_FIELDS} light fields, {CORES_PER_MACHINE} cores "
-          "per machine, one Dask worker process per core, Dask's overhead included:")
+    print(f"throughput, 2 local workers / 1 worker (1 thread each) = {base / median[pool]:.2f}x "
+          f"(target >= 1.8); / 1 worker on both cores = {median[SETUPS[1]] / median[pool]:.2f}x")
+    print(f"Dask overhead per task (its gap less the local pool's, median over rounds) = "
+          f"{overhead * 1000:.0f} ms = {100 * overhead / liff_1:.1f}% of LiFF's own time (target "
+          f"<= 5%); wall-time difference per task, by round: "
+          f"{', '.join(f'{1000 * d:.0f} ms' for d in per_round)}; LocalCluster start-up "
+          f"{startup:.1f} s (once per run)")
+    per_light_field = cpu[pool]  # CPU seconds per light field, reading and writing included
+    print(f"\nmeasured cost: {per_light_field:.2f} CPU seconds per light field (read, detect, "
+          f"write; one thread); the paper's {PAPER_LIGHT_FIELDS} light fields, "
+          f"{CORES_PER_MACHINE} cores per machine, one one-thread Dask worker per core, Dask's "
+          "overhead included, files on storage that keeps up:")
     for machines in (1, 8, 64):
-        seconds = PAPER_LIGHT_FIELDS * (per_light_field + max(overhead, 0) * 2) / (
+        seconds = PAPER_LIGHT_FIELDS * (per_light_field + max(overhead, 0)) / (
             machines * CORES_PER_MACHINE)
         print(f"  {machines:2d} machine(s): {seconds / 60:6.1f} min")
 
@@ -131,13 +151,15 @@ def main(argv=None) -> int:
                                       dashboard_address=":0") as cluster, \
                 distributed.Client(cluster) as client:
             startup = time.perf_counter() - start
-            walls = {name: [] for name in SETUPS}
+            runs = {name: [] for name in SETUPS}
             for r in range(args.rounds):
                 for i, name in enumerate(SETUPS):
                     out = os.path.join(work, f"out{r}{i}")
-                    walls[name].append(timed_run(name, tasks_into(paths, out), client))
-                    print(f"round {r + 1}, {name}: {walls[name][-1]:.1f} s", flush=True)
-    report(walls, args.count, liff_1, liff_2, startup)
+                    load = os.getloadavg()[0]
+                    runs[name].append(timed_run(name, tasks_into(paths, out), client) + (load,))
+                    print(f"round {r + 1}, {name}: {runs[name][-1][0]:.1f} s (load average "
+                          f"{load:.1f} before)", flush=True)
+    report(runs, args.count, liff_1, liff_2, startup)
     return 0
 
 

@@ -63,7 +63,7 @@ def test_local_cluster_batch_equals_the_api_and_reports_failures(cluster, tmp_pa
         assert outcome.worker.startswith(("tcp://", "inproc://"))
     rows = read_manifest(tmp_path / "m.csv")
     assert list(rows[0]) == ["input", "output", "status", "features", "first_slope",
-                             "last_slope", "seconds", "error", "worker"]
+                             "last_slope", "seconds", "cpu_seconds", "error", "worker"]
     assert [r["status"] for r in rows] == ["failed", "done", "done", "done"]
     assert rows[1]["first_slope"] == "-1.0" and float(rows[1]["seconds"]) > 0
     # A re-run does only what is missing.

@@ -55,7 +55,8 @@ class Outcome:
 
     ``status`` is "done", "failed" or "kept" (an output made with the same settings
     was there); ``first_slope``/``last_slope`` the slope range searched; ``seconds``
-    the task's time on its worker (reading, detecting, writing)."""
+    the task's time on its worker (reading, detecting, writing) and ``cpu_seconds``
+    the processor time it took (all of LiFF's threads)."""
 
     input: str
     output: str
@@ -64,6 +65,7 @@ class Outcome:
     first_slope: Optional[float] = None
     last_slope: Optional[float] = None
     seconds: Optional[float] = None
+    cpu_seconds: Optional[float] = None
     error: str = ""
     worker: str = ""
 
@@ -77,15 +79,17 @@ def run_task(task: Task) -> Outcome:
     from .cli.detect import detect_one
 
     with _ONE_AT_A_TIME, _worker_resources() as worker:
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         try:
             result = detect_one(*task)
+            outcome = Outcome(task.source, task.output, "done", result.features, *result.slope_range)
         except Exception as error:  # reported in the manifest, as every failure of a task
-            return Outcome(task.source, task.output, "failed",
-                           seconds=round(time.perf_counter() - start, 3),
-                           error=f"{type(error).__name__}: {error}", worker=worker)
-    return Outcome(task.source, task.output, "done", result.features, *result.slope_range,
-                   seconds=round(time.perf_counter() - start, 3), worker=worker)
+            outcome = Outcome(task.source, task.output, "failed",
+                              error=f"{type(error).__name__}: {error}")
+        outcome.seconds = round(time.perf_counter() - start, 3)
+        outcome.cpu_seconds = round(time.process_time() - cpu, 3)
+        outcome.worker = worker
+    return outcome
 
 
 @contextmanager

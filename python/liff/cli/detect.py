@@ -45,7 +45,7 @@ def add_parser(sub) -> None:
                         "docs/BATCH.md")
     p.add_argument("--manifest", default=None, metavar="CSV",
                    help="write the run's manifest (input, output, status, features, slope "
-                        "range, seconds, error) here (default for several inputs: "
+                        "range, seconds, CPU seconds, error, worker) here (default for several inputs: "
                         "OUT/manifest-<UTC time>.csv)")
     p.add_argument("--overwrite", action="store_true",
                    help="redo outputs that exist even if made with the same settings, and "

@@ -146,8 +146,9 @@ def _free_port():
 
 
 def _dask(*args):
-    return subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_" + args[0], *args[1:]],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    """Dask's own command (`dask scheduler`, `dask worker`), from this environment."""
+    command = os.path.join(os.path.dirname(sys.executable), "dask")
+    return subprocess.Popen([command, *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
 def test_a_worker_killed_mid_run_loses_nothing(tmp_path):

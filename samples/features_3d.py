@@ -35,6 +35,22 @@ def load(hci_path):
     return scene.light_field, (-1.0, 1.0), scene.slope_map, "built-in layers (-0.6, 0.1, 0.7)"
 
 
+def plot_features(xy, slopes, slope_range, title):
+    """The 3-D scatter (x, slope, y) coloured by slope, with a colour bar far enough
+    right that the y label, which matplotlib puts on the right edge, stays visible."""
+    figure = plt.figure(figsize=(8, 6))
+    axes = figure.add_subplot(projection="3d")
+    points = axes.scatter(xy[:, 0], slopes, xy[:, 1], c=slopes, cmap="turbo", s=6,
+                          vmin=slope_range[0], vmax=slope_range[1])
+    axes.set_xlabel("x (px)")
+    axes.set_ylabel("slope (px / view)", labelpad=12)
+    axes.set_zlabel("y (px)")
+    axes.invert_zaxis()  # image rows grow downwards
+    axes.set_title(title)
+    figure.colorbar(points, label="slope", shrink=0.7, pad=0.15)
+    return figure
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", default="features_3d.png")
@@ -48,16 +64,7 @@ def main() -> int:
     xy = np.array([k.pt for k in keypoints])
     slopes = liff.keypoint_slopes(keypoints)
 
-    figure = plt.figure(figsize=(8, 6))
-    axes = figure.add_subplot(projection="3d")
-    points = axes.scatter(xy[:, 0], slopes, xy[:, 1], c=slopes, cmap="turbo", s=6,
-                          vmin=first, vmax=last)
-    axes.set_xlabel("x (px)")
-    axes.set_ylabel("slope (px / view)")
-    axes.set_zlabel("y (px)")
-    axes.invert_zaxis()  # image rows grow downwards
-    axes.set_title(f"{len(keypoints)} LiFF features, {title}")
-    figure.colorbar(points, label="slope", shrink=0.7)
+    figure = plot_features(xy, slopes, (first, last), f"{len(keypoints)} LiFF features, {title}")
     figure.savefig(args.out, dpi=120, bbox_inches="tight")
 
     if truth is not None:

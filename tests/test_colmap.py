@@ -210,11 +210,12 @@ def test_write_database_checks_names_before_writing(tmp_path):
     image = np.zeros((20, 30), np.uint8)
     kps, desc = [cv2.KeyPoint(1.0, 1.0, 2.0)], np.full((1, 128), 9, np.uint8)
     good = colmap.FeatureImage("a.png", image, kps, desc)
-    for name, message in (("pose0", "image ending"), ("b.npy", "image ending"),
-                          ("missing_folder/b.png", "could not write")):
+    (tmp_path / "a_file").write_text("in the way")
+    for folder, name, message in (("im", "pose0", "image ending"), ("im", "b.npy", "image ending"),
+                                  ("a_file", "b.png", "cannot create the folder")):
         bad = colmap.FeatureImage(name, image, kps, desc)
         with pytest.raises(ValueError, match=message):
-            colmap.write_database(tmp_path / "a.db", tmp_path / "im", [good, bad])
+            colmap.write_database(tmp_path / "a.db", tmp_path / folder, [good, bad])
         assert not (tmp_path / "a.db").exists()
     assert colmap.write_database(tmp_path / "a.db", tmp_path / "im",
                                  [good, colmap.FeatureImage("B.JPG", image, kps, desc)]) == [1, 2]

@@ -16,6 +16,7 @@ def run_sample(name, *args):
     result = subprocess.run([sys.executable, os.path.join(SAMPLES, name), *args],
                             capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
+    assert not re.search(r"^[IW]\d{4} ", result.stderr, re.M), result.stderr  # COLMAP's log: quiet
     return result.stdout
 
 

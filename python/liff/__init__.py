@@ -35,8 +35,9 @@ __version__ = "0.1.0"
 
 # Submodules load on first use (``import liff; liff.io.read_light_field(...)`` works
 # without paying for readers, plotting or pycolmap at ``import liff``).
-_SUBMODULES = frozenset({"captures", "colmap", "demo", "feature_file", "io", "keypoint_rows",
-                         "matching", "plot", "preprocess", "synthetic"})
+_SUBMODULES = frozenset({"batch", "captures", "colmap", "demo", "feature_file", "io",
+                         "keypoint_rows", "matching", "outputs", "plot", "preprocess",
+                         "synthetic"})
 
 
 def __getattr__(name):

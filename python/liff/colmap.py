@@ -24,6 +24,7 @@ Conventions crossed here:
 from __future__ import annotations
 
 import os
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from itertools import combinations
 from typing import Dict, List, Optional, Sequence, Tuple, Union
@@ -33,6 +34,7 @@ import numpy as np
 
 from . import plot, preprocess
 from .io.images import IMAGE_SUFFIXES, write_image
+from .outputs import atomic_output
 
 try:
     import pycolmap
@@ -281,11 +283,17 @@ def write_database(
         camera = pycolmap.Camera.create_from_model_name(1, "SIMPLE_PINHOLE", float(focal), width, height)
         camera.params = [float(focal), cx + 0.5, cy + 0.5]
         camera.has_prior_focal_length = True
-    os.makedirs(image_dir, exist_ok=True)
     for im, g in zip(images, grey):  # before the database, so a failure leaves none behind
-        write_image(os.path.join(image_dir, im.name), g)
+        with atomic_output(os.path.join(image_dir, im.name)) as partial:
+            write_image(partial, g)
+    with atomic_output(database_path) as partial:  # complete, or not there at all
+        return _write_features(partial, camera, images, features)
+
+
+def _write_features(database_path: str, camera, images, features) -> List[int]:
+    """Writes the camera and every image's keypoints and descriptors into a new database."""
     ids = []
-    try:
+    with colmap_log():
         with pycolmap.Database.open(database_path) as db:
             camera_id = db.write_camera(camera)
             for im, (keypoints, descriptors) in zip(images, features):
@@ -294,10 +302,6 @@ def write_database(
                 db.write_descriptors(image_id, pycolmap.FeatureDescriptors(
                     pycolmap.FeatureExtractorType.SIFT, descriptors))
                 ids.append(image_id)
-    except BaseException:
-        if os.path.exists(database_path):  # half written: it would refuse the next run
-            os.remove(database_path)
-        raise
     return ids
 
 
@@ -315,7 +319,20 @@ def matching_options(seed: int = 0) -> tuple:
     return matching, verification
 
 
-def match(database_path: PathLike, matching=None, verification=None, seed: int = 0) -> None:
+@contextmanager
+def colmap_log(verbose: bool = False):
+    """COLMAP's log (glog, on stderr) for the duration of a block: errors only unless
+    ``verbose`` (its INFO and WARNING lines, hundreds per run, drown what liff prints)."""
+    previous = pycolmap.logging.minloglevel
+    pycolmap.logging.minloglevel = 0 if verbose else 2
+    try:
+        yield
+    finally:
+        pycolmap.logging.minloglevel = previous
+
+
+def match(database_path: PathLike, matching=None, verification=None, seed: int = 0,
+          verbose: bool = False) -> None:
     """Exhaustive matching and two-view geometric verification of every image pair.
 
     Parameters
@@ -323,12 +340,18 @@ def match(database_path: PathLike, matching=None, verification=None, seed: int =
     matching : pycolmap.FeatureMatchingOptions, optional
     verification : pycolmap.TwoViewGeometryOptions, optional
         Default: :func:`matching_options` ``(seed)``.
+    verbose : bool
+        Show COLMAP's log (default: errors only; see :func:`colmap_log`).
     """
     default_matching, default_verification = matching_options(seed)
+    with colmap_log(verbose):
+        _match_exhaustive(database_path, default_matching if matching is None else matching,
+                          default_verification if verification is None else verification)
+
+
+def _match_exhaustive(database_path: PathLike, matching, verification) -> None:
     pycolmap.match_exhaustive(
-        os.fspath(database_path),
-        matching_options=default_matching if matching is None else matching,
-        verification_options=default_verification if verification is None else verification,
+        os.fspath(database_path), matching_options=matching, verification_options=verification,
         device=pycolmap.Device.cpu)
 
 
@@ -372,15 +395,18 @@ def mapper_options(kind: str = "default", seed: int = 0,
 
 
 def reconstruct(database_path: PathLike, image_dir: PathLike, out_dir: PathLike,
-                mapper: str = "default", seed: int = 0, fixed_intrinsics: bool = False) -> SfmResult:
+                mapper: str = "default", seed: int = 0, fixed_intrinsics: bool = False,
+                verbose: bool = False) -> SfmResult:
     """COLMAP's incremental mapping on a matched database (see :func:`mapper_options`).
 
     Models are written to ``out_dir/0``, ``out_dir/1``, ...; the result holds them.
+    COLMAP's log shows errors only unless ``verbose``.
     """
     options = mapper_options(mapper, seed, fixed_intrinsics)
     os.makedirs(out_dir, exist_ok=True)
-    models = pycolmap.incremental_mapping(os.fspath(database_path), os.fspath(image_dir),
-                                          os.fspath(out_dir), options)
+    with colmap_log(verbose):
+        models = pycolmap.incremental_mapping(os.fspath(database_path), os.fspath(image_dir),
+                                              os.fspath(out_dir), options)
     with pycolmap.Database.open(os.fspath(database_path)) as db:
         num_images = db.num_images()
     return SfmResult(dict(models), num_images)

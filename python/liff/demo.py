@@ -15,7 +15,8 @@ import numpy as np
 
 from . import synthetic
 from ._detector import LiFF
-from .plot import draw_keypoints_by_slope
+from .outputs import atomic_output
+from .plot import draw_ground_truth, draw_keypoints_by_slope
 
 DEMO_SHAPE = (9, 9, 192, 192)
 DEMO_SLOPES = (-0.8, -0.4, 0.0, 0.4)
@@ -46,7 +47,6 @@ def match_to_truth(keypoints, blobs) -> synthetic.BlobMatch:
 
 
 def run_demo(out_dir: str, noise_variance: float = 1e-3) -> int:
-    os.makedirs(out_dir, exist_ok=True)
     lf, blobs = demo_light_field(noise_variance)
     T, S, V, U = lf.shape
     detector = LiFF.create()
@@ -63,8 +63,10 @@ def run_demo(out_dir: str, noise_variance: float = 1e-3) -> int:
     sift_match = match_to_truth(sift_keypoints, blobs)
     used = detector.getSlicesUsed()
     picture = draw_keypoints_by_slope(centre, keypoints, slope_range=(used[0], used[-1]))
+    draw_ground_truth(picture, [(b.x, b.y) for b in blobs], match.found)
     path = os.path.join(out_dir, "features.png")
-    cv2.imwrite(path, picture)
+    with atomic_output(path) as partial:
+        cv2.imwrite(partial, picture)
 
     print(f"light field: {T}x{S} views of {V}x{U} pixels, noise variance {noise_variance:g}, "
           f"{len(blobs)} blobs at slopes {', '.join(f'{s:+.1f}' for s in DEMO_SLOPES)} "
@@ -81,5 +83,5 @@ def run_demo(out_dir: str, noise_variance: float = 1e-3) -> int:
         print(f"  slope error of found blobs: median |e| = {np.median(np.abs(errors)):.3f}, "
               f"max |e| = {np.abs(errors).max():.3f} px per view step")
     print(f"  descriptors: {descriptors.shape if descriptors is not None else None}")
-    print(f"picture of the features coloured by slope: {path}")
+    print(f"picture of the features coloured by slope, blobs marked + found, x missed: {path}")
     return 0

@@ -8,7 +8,9 @@ Arrays in the file:
 ``slopes``     (N,) float64   slope of each feature, pixels per view step
 ``descriptors`` (N, 128)      float32 or uint8 (SIFT integers in [0, 255])
 ``centre_view`` (V, U[, 3])   uint8, the picture the features are drawn on
-``meta``       str            JSON: source file, light field shape, parameters
+``meta``       str            JSON: how the file was made (source, reader options,
+                              preprocessing, detector parameters, liff version) and
+                              the light field's shape; :func:`read_meta` reads it alone
 ============== ============== ==================================================
 """
 
@@ -123,6 +125,19 @@ def load_features(path: PathLike) -> Features:
     class_ids = np.round(slopes.astype(np.float64) * SLOPE_SCALE)
     keypoints = rows_to_keypoints(np.column_stack([rows.astype(np.float64), class_ids]))
     return Features(keypoints, descriptors if n else None, view, meta)
+
+
+def read_meta(path: PathLike) -> Optional[dict]:
+    """The ``meta`` record of a liff feature file, without reading its arrays; None if
+    ``path`` is not a readable feature file (another kind of file, or a damaged one)."""
+    try:
+        with np.load(os.fspath(path), allow_pickle=False) as data:
+            if not {"keypoints", "descriptors", "meta"} <= set(data.files):
+                return None
+            meta = json.loads(str(data["meta"]))
+    except Exception:  # numpy/zipfile/json raise many kinds on a foreign or damaged file
+        return None
+    return meta if isinstance(meta, dict) else None
 
 
 def _check_arrays(path: str, rows, slopes, descriptors, view, meta) -> None:

@@ -113,6 +113,27 @@ def verify(keypoints_a: Sequence[cv2.KeyPoint], keypoints_b: Sequence[cv2.KeyPoi
     return MatchResult(matches, mask.ravel().astype(bool), estimate[:3])
 
 
+def chance_inliers(keypoints_a: Sequence[cv2.KeyPoint], keypoints_b: Sequence[cv2.KeyPoint],
+                   matches: Sequence[cv2.DMatch], model: str = "homography",
+                   threshold: float = 3.0, trials: int = 5, seed: int = 0) -> int:
+    """How many inliers the same RANSAC finds by chance among these matches: the most
+    it keeps over ``trials`` random re-pairings of the matched keypoints (each point of
+    a with a random matched point of b), which share no geometry.
+
+    An inlier count that is not well above this shows nothing about the two views
+    (e.g. 7 homography inliers among 296 putative matches of two unrelated scenes,
+    where re-pairings give about as many)."""
+    matches = list(matches)
+    rng = np.random.default_rng(seed)
+    cv2.setRNGSeed(seed)  # RANSAC's sampling: the same answer every time
+    most = 0
+    for _ in range(trials):
+        shuffled = rng.permutation([m.trainIdx for m in matches])
+        pairs = [cv2.DMatch(m.queryIdx, int(j), 0.0) for m, j in zip(matches, shuffled)]
+        most = max(most, verify(keypoints_a, keypoints_b, pairs, model, threshold).inlier_count)
+    return most
+
+
 def draw_inliers(image_a: np.ndarray, keypoints_a, image_b: np.ndarray, keypoints_b,
                  result: MatchResult) -> np.ndarray:
     """Side-by-side picture of the inlier matches (cv2.drawMatches)."""

@@ -54,10 +54,15 @@ def draw_keypoints_by_slope(
 
     Returns
     -------
-    picture : ndarray of uint8, shape (scale*V, scale*U + bar, 3)
+    picture : ndarray of uint8, shape (max(scale*V, 120), scale*U + bar, 3)
+        The view at the top left (white below it if it is less than 120 pixels
+        high, so that the colour bar's labels fit), the colour bar on the right.
     """
     canvas = to_display(image)
     canvas = cv2.resize(canvas, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST)
+    if canvas.shape[0] < MIN_HEIGHT:
+        canvas = cv2.copyMakeBorder(canvas, 0, MIN_HEIGHT - canvas.shape[0], 0, 0,
+                                    cv2.BORDER_CONSTANT, value=(255, 255, 255))
     slopes = keypoint_slopes(keypoints)
     if slope_range is None:
         slope_range = (float(slopes.min()), float(slopes.max())) if len(slopes) else (-1.0, 1.0)
@@ -73,14 +78,72 @@ def draw_keypoints_by_slope(
     return np.hstack([canvas, _colour_bar(canvas.shape[0], slope_range, colormap)])
 
 
+def text_scale(height: int) -> float:
+    """OpenCV font scale for labels on a picture ``height`` pixels high: letters about
+    2.5% of the height (12 px at 480), and never under 9 px."""
+    return max(0.4, height / 1000)
+
+
+def _put_text(picture: np.ndarray, text: str, origin, font_scale: float,
+              colour=(0, 0, 0), outline: int = 0) -> None:
+    """Text at ``origin`` (its baseline's left end); ``outline`` thickens the stroke,
+    for a dark border drawn before the same text in a light colour."""
+    thickness = max(1, int(round(font_scale * 1.5))) + outline
+    cv2.putText(picture, text, tuple(int(v) for v in origin), cv2.FONT_HERSHEY_SIMPLEX,
+                font_scale, colour, thickness, cv2.LINE_AA)
+
+
 def _colour_bar(height: int, slope_range: Tuple[float, float], colormap: int) -> np.ndarray:
-    bar = np.full((height, 90, 3), 255, np.uint8)
-    top, bottom = 20, height - 20
+    """A vertical colour bar with its end values and "slope", sized for ``height``."""
+    font = text_scale(height)
+    (label_width, label_height), _ = cv2.getTextSize("+0.00", cv2.FONT_HERSHEY_SIMPLEX, font, 1)
+    margin = label_height
+    ramp = max(20, label_height * 2)
+    bar = np.full((height, 3 * margin + ramp + label_width, 3), 255, np.uint8)
+    top, bottom = 2 * margin, height - 2 * margin
     levels = np.linspace(slope_range[1], slope_range[0], max(bottom - top, 2))
-    bar[top:bottom, 8:28] = slope_colours(levels, slope_range, colormap)[:, None, :]
-    for value, y in ((slope_range[1], top), (slope_range[0], bottom - 1)):
-        cv2.putText(bar, f"{value:+.2f}", (32, y + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1,
-                    cv2.LINE_AA)
-    cv2.putText(bar, "slope", (30, height // 2), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1,
-                cv2.LINE_AA)
+    bar[top:bottom, margin:margin + ramp] = slope_colours(levels, slope_range, colormap)[:, None, :]
+    x = 2 * margin + ramp
+    for value, y in ((slope_range[1], top + label_height // 2),
+                     (slope_range[0], bottom - 1 + label_height // 2)):
+        _put_text(bar, f"{value:+.2f}", (x, y), font)
+    _put_text(bar, "slope", (x, height // 2 + label_height // 2), font)
     return bar
+
+
+MIN_HEIGHT = 120  # pixels: the colour bar's three labels fit
+
+
+def draw_ground_truth(picture: np.ndarray, points: np.ndarray, found: np.ndarray,
+                      scale: int = 2) -> np.ndarray:
+    """Marks known feature positions on a picture from :func:`draw_keypoints_by_slope`:
+    a white + on the ones found, a magenta x on the ones missed (colours the slope map
+    does not use), and a legend with both counts at the top left.
+
+    Parameters
+    ----------
+    picture : ndarray of uint8, shape (H, W, 3)
+        Drawn on in place and returned.
+    points : ndarray, shape (N, 2)
+        (x, y) in the view's pixels.
+    found : ndarray of bool, shape (N,)
+    scale : int
+        The picture's ``scale``.
+    """
+    size = max(7, int(round(picture.shape[0] / 40)))
+    for (x, y), hit in zip(np.asarray(points, float), np.asarray(found, bool)):
+        centre = tuple(int(round(v * scale + (scale - 1) / 2)) for v in (x, y))
+        marker = cv2.MARKER_CROSS if hit else cv2.MARKER_TILTED_CROSS
+        colour = (255, 255, 255) if hit else (255, 0, 255)
+        cv2.drawMarker(picture, centre, (0, 0, 0), marker, size + 2, 4)
+        cv2.drawMarker(picture, centre, colour, marker, size, 2)
+    found = np.asarray(found, bool)
+    font = text_scale(picture.shape[0])
+    lines = [(f"+ found {found.sum()}/{len(found)}", (255, 255, 255)),
+             (f"x missed {(~found).sum()}", (255, 0, 255))]
+    step = cv2.getTextSize("x", cv2.FONT_HERSHEY_SIMPLEX, font, 1)[0][1] * 2
+    for i, (text, colour) in enumerate(lines):
+        origin = (step // 2, step * (i + 1))
+        _put_text(picture, text, origin, font, (0, 0, 0), outline=3)
+        _put_text(picture, text, origin, font, colour)
+    return picture

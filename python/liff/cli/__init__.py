@@ -12,7 +12,8 @@ import argparse
 import sys
 from typing import List, Optional
 
-from . import colmap, demo, detect, match, pose, synth
+from .. import __version__, opencvVersion
+from . import colmap, common, demo, detect, match, pose, synth
 
 COMMANDS = (detect, match, pose, colmap, synth, demo)
 
@@ -21,6 +22,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="liff", description="Light field features in scale and depth (LiFF).",
         epilog="Axis order, slope sign and file formats: docs/CONVENTIONS.md, docs/INPUTS.md.")
+    parser.add_argument("--version", action="version",
+                        version=f"liff {__version__} (OpenCV {opencvVersion()})")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
         command.add_parser(sub)
@@ -35,5 +38,5 @@ def main(argv: Optional[List[str]] = None) -> int:
         print(f"liff {args.command}: interrupted", file=sys.stderr)
         return 130
     except (ValueError, OSError, MemoryError, ImportError) as error:
-        print(f"liff {args.command}: {error}", file=sys.stderr)
+        print(f"liff {args.command}: {common.name_flags(str(error))}", file=sys.stderr)
         return 1

@@ -6,11 +6,13 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
+import sys
 
 import numpy as np
 
 from ..keypoint_rows import keypoints_to_rows, rows_to_keypoints
 from ..feature_file import centre_view, load_features
+from ..outputs import refuse_inputs
 from . import common
 from .calibration import add_camera_options, camera_from_args
 from .match import is_feature_file
@@ -29,9 +31,14 @@ METRICS = (("registered images", "registered", "{:.0%}"),
 def add_parser(sub) -> None:
     for name, helptext in (("colmap", "write centre views and LiFF features into a COLMAP database"),
                            ("sfm", "COLMAP structure from motion on LiFF features")):
-        p = sub.add_parser(name, help=helptext, description=__doc__)
+        p = sub.add_parser(name, help=helptext, description=helptext[0].upper() + helptext[1:] + (
+            ". The centre view of each light field is the image of its camera pose."
+            if name == "colmap" else ": a database of LiFF features, exhaustive matching, "
+            "incremental mapping, and the paper's table (registered images, matches, 3-D "
+            "points, track length). Exits non-zero if any image is left unregistered."))
         p.add_argument("paths", nargs="+", metavar="PATH",
-                       help="light fields (one per camera pose) or feature files from liff detect")
+                       help="light fields (one per camera pose), folders of them, or feature "
+                            "files from liff detect")
         if name == "colmap":
             p.add_argument("--database", required=True, help="COLMAP database to create")
             p.add_argument("--image-dir", required=True, help="folder for the centre views")
@@ -43,7 +50,8 @@ def add_parser(sub) -> None:
             add_camera_options(p)  # with a camera, the model is scaled to metres
         p.add_argument("--focal", type=float, default=None,
                        help="focal length in pixels (default: COLMAP's guess, 1.2 x max side)")
-        p.add_argument("--workers", type=int, default=1, help="processes for detection")
+        p.add_argument("--workers", type=int, default=1,
+                       help="processes for detection (default 1)")
         p.add_argument("--overwrite", action="store_true", help="replace an existing database")
         common.add_reader_options(p)
         common.add_detector_options(p)
@@ -78,11 +86,13 @@ def write(args: argparse.Namespace, database: str, image_dir: str, focal=None,
     ``images_out`` if given."""
     from .. import colmap
 
+    names = [common.output_name(path, ".png") for path in args.paths]
+    refuse_inputs([database] + [os.path.join(image_dir, n) for n in names], args.paths,
+                  "--database / --image-dir / --workspace")
     if os.path.exists(database):
         if not args.overwrite:
             raise ValueError(f"{database}: exists; COLMAP needs a fresh database (or --overwrite)")
         os.remove(database)
-    names = [common.output_name(path, ".png") for path in args.paths]
     if len(set(names)) != len(names):
         raise ValueError(f"inputs give repeated image names {sorted(names)}; expected distinct "
                          "file or folder names")
@@ -124,17 +134,17 @@ def scale_to_metres(result, images, camera, sparse: str) -> None:
 
 
 def run_colmap(args: argparse.Namespace) -> int:
+    args.paths = common.expand_inputs(args.paths, common.reader_options(args))
     return 1 if write(args, args.database, args.image_dir) else 0
 
 
 def run_sfm(args: argparse.Namespace) -> int:
     from .. import colmap  # first: without pycolmap it says how to install it
 
+    args.paths = common.expand_inputs(args.paths, common.reader_options(args))
     if len(args.paths) < 2:
         raise ValueError(f"{len(args.paths)} input; expected light fields of at least 2 camera "
                          "poses for structure from motion")
-    colmap.pycolmap.logging.minloglevel = 2  # COLMAP's INFO lines would drown the summary
-
     database = os.path.join(args.workspace, "database.db")
     image_dir = os.path.join(args.workspace, "images")
     sparse = os.path.join(args.workspace, "sparse")
@@ -147,10 +157,12 @@ def run_sfm(args: argparse.Namespace) -> int:
     else:  # the calibration's focal length and principal point are COLMAP's prior
         failures = write(args, database, image_dir, args.focal or camera.focal_length,
                          camera.principal_point, images_out=images)
-    colmap.match(database)
+    with common.step(f"liff sfm: matching every pair of {len(args.paths) - failures} images"):
+        colmap.match(database)
     # A calibrated camera's intrinsics are known: bundle adjustment keeps them.
-    result = colmap.reconstruct(database, image_dir, sparse, args.mapper,
-                                fixed_intrinsics=camera is not None)
+    with common.step(f"liff sfm: incremental mapping ({args.mapper} mapper)"):
+        result = colmap.reconstruct(database, image_dir, sparse, args.mapper,
+                                    fixed_intrinsics=camera is not None)
     metrics = colmap.table_metrics(database, result)
     print(f"reconstruction ({args.mapper} mapper): "
           + ("a model in " + sparse if result.success else "FAILED (no model)"))
@@ -159,4 +171,9 @@ def run_sfm(args: argparse.Namespace) -> int:
     for label, key, fmt in METRICS:
         value = metrics[key]
         print(f"  {label:26s} " + ("-" if isinstance(value, float) and np.isnan(value) else fmt.format(value)))
-    return 1 if failures or not result.success else 0
+    registered = result.best.num_reg_images() if result.success else 0
+    if result.success and registered < result.num_images:
+        print(f"liff sfm: only {registered} of {result.num_images} images registered; the others "
+              "are not in the model (try --mapper permissive, or more overlap between poses)",
+              file=sys.stderr)
+    return 1 if failures or registered < result.num_images else 0

@@ -3,15 +3,21 @@
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import re
 import sys
+import time
+from contextlib import contextmanager
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from typing import Callable, List, Sequence, Tuple
+from typing import Callable, Dict, Iterable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from .._detector import PARAMETERS, LiFF
+from ..io._shared import IMAGE_SUFFIXES
+
+FILE_ENDINGS = IMAGE_SUFFIXES + (".npz", ".npy", ".db")
 
 
 def add_reader_options(parser: argparse.ArgumentParser) -> None:
@@ -78,25 +84,147 @@ def add_detector_options(parser: argparse.ArgumentParser) -> None:
                                metavar=p.type.__name__.upper(), help=text.replace("%", "%%"))
 
 
+class _Probe(list):
+    """A value no option has by default; iterable for options read as tuple(value)."""
+
+
+def keyword_flags() -> Dict[str, str]:
+    """Python keyword -> command-line flag for the reader options and detector
+    parameters (``keep`` -> ``--keep-views``, ``contrastThreshold`` ->
+    ``--contrast-threshold``), found by passing each flag a probe value through
+    :func:`reader_options`, so that it follows whatever options that function reads."""
+    flags = {p.name: option_name(p.name) for p in PARAMETERS}
+    parser = argparse.ArgumentParser()
+    add_reader_options(parser)
+    actions = [a for a in parser._actions if a.option_strings and a.dest != "help"]
+    for action in actions:
+        probe = argparse.Namespace(**{a.dest: a.default for a in actions})
+        token = object()
+        setattr(probe, action.dest, _Probe([token]))
+        for keyword, value in reader_options(probe).items():
+            if value is getattr(probe, action.dest) or (isinstance(value, tuple) and token in value):
+                flags[keyword] = action.option_strings[0]
+    return flags
+
+
+def name_flags(message: str) -> str:
+    """``message`` with the readers' and the detector's Python keywords named as the
+    command line's flags: "keep = 20" -> "--keep-views = 20", "option(s) key do not
+    apply ...; expected n, keep" -> "option(s) --key ...; expected --lenslet, --keep-views"."""
+    flags = keyword_flags()
+
+    def in_list(match: re.Match) -> str:
+        return re.sub(r"\w+", lambda word: flags.get(word.group(0), word.group(0)), match.group(0))
+
+    if " do not apply to format " in message:  # liff.io.read_light_field's option check
+        message = re.sub(r"(?<=option\(s\) )[\w, ]+(?= do not apply)", in_list, message)
+        message = re.sub(r"(?<=; expected )[\w, ]+$", in_list, message)
+    for keyword, flag in flags.items():
+        camel = keyword != keyword.lower()  # detector parameters: unique words, named anywhere
+        pattern = rf"(?<![\w.-]){keyword}\b" + ("" if camel else r"(?= ?=| \(| \d)")
+        message = re.sub(pattern, flag, message)
+    return message
+
+
 def detector_parameters(args: argparse.Namespace) -> dict:
     """Every create() keyword with its value from the parsed options."""
     return {p.name: getattr(args, p.name) for p in PARAMETERS}
 
 
+#: setMemoryLimitMB of the detectors made here (0: LiFF's default, the memory available
+#: when a call starts); liff.batch sets it on a Dask worker from the worker's limit.
+memory_limit_mb = 0
+
+
 def make_detector(parameters: dict) -> LiFF:
-    return LiFF.create(**parameters)
+    detector = LiFF.create(**parameters)
+    detector.setMemoryLimitMB(memory_limit_mb)
+    return detector
 
 
-def load_light_field(path: str, options: dict, preprocess: bool) -> np.ndarray:
-    """Reads a light field (any liff.io format) and optionally preprocesses it."""
+def read_input(path: str, options: dict, preprocess: bool) -> Tuple[np.ndarray, dict]:
+    """Reads a light field (any liff.io format), optionally preprocessed, and the
+    reader's metadata (e.g. an HCI scene's disparity range and camera)."""
     from .. import io
 
-    light_field = io.read_light_field(path, **options).light_field
+    read = io.read_light_field(path, **options)
+    light_field = read.light_field
     if preprocess:
         from ..preprocess import prepare
 
         light_field = prepare(light_field)
-    return light_field
+    return light_field, read.metadata
+
+
+def load_light_field(path: str, options: dict, preprocess: bool) -> np.ndarray:
+    """Reads a light field (any liff.io format) and optionally preprocesses it."""
+    return read_input(path, options, preprocess)[0]
+
+
+def is_light_field_folder(folder: str, options: dict) -> bool:
+    """A folder is one light field (HCI scene, views) when it holds image files, unless
+    ``--format`` names a one-file format; else it is a folder of light fields."""
+    if options.get("format") not in (None, "hci", "views"):
+        return False
+    with os.scandir(folder) as entries:
+        return any(e.is_file() and e.name.lower().endswith(IMAGE_SUFFIXES)
+                   and ".eslf." not in e.name.lower() and not e.name.startswith(".")
+                   for e in entries)
+
+
+def _folder_entries(folder: str) -> List[str]:
+    """The light fields in a folder of light fields: sub-folders and the files liff.io
+    recognises (.npy, .npz, *.eslf.*), sorted; hidden files (partial outputs) skipped."""
+    from ..io import guess_format
+
+    names = sorted(n for n in os.listdir(folder) if not n.startswith("."))
+    paths = [os.path.join(folder, n) for n in names]
+    return [p for p in paths if os.path.isdir(p) or guess_format(p) is not None]
+
+
+def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] = None) -> List[str]:
+    """The light fields that PATH arguments name: each is a light field, a folder of
+    light fields (see :func:`is_light_field_folder`) or a glob pattern (quoted, so the
+    shell left it); ``from_list`` is a text file of more, one a line (relative to the
+    current folder; blank lines and lines starting with # skipped). Repeats are dropped.
+
+    Raises
+    ------
+    ValueError
+        Naming the pattern, folder or list file that gave no light field.
+    """
+    import glob
+
+    paths = list(paths)
+    if from_list:
+        try:
+            with open(from_list) as f:
+                listed = [line.strip() for line in f]
+        except OSError as error:
+            raise ValueError(f"{from_list}: cannot read the list ({error.strerror}); expected "
+                             "a text file of light field paths, one a line") from None
+        paths += [line for line in listed if line and not line.startswith("#")]
+    found: List[str] = []
+    for path in paths:
+        if not os.path.exists(path) and glob.has_magic(path):
+            matches = sorted(glob.glob(path, recursive=True))
+            if not matches:
+                raise ValueError(f"{path}: no file matches the pattern; expected light fields")
+            found += matches
+        elif os.path.isdir(path) and not is_light_field_folder(path, options):
+            entries = _folder_entries(path)
+            if not entries:
+                raise ValueError(f"{path}: no light field in the folder; expected view images "
+                                 "(one light field) or light field files and folders")
+            found += entries
+        else:
+            found.append(path)  # the reader will say if it is not a light field
+    seen, unique = set(), []
+    for path in found:
+        if os.path.realpath(path) not in seen:
+            seen.add(os.path.realpath(path))
+            unique.append(path)
+    return unique
 
 
 def output_name(path: str, suffix: str) -> str:
@@ -108,10 +236,40 @@ def output_name(path: str, suffix: str) -> str:
     return (stem or "light_field") + suffix
 
 
+def json_like(value):
+    """``value`` as it reads back from JSON (tuples become lists), for comparing
+    settings with those recorded in a file."""
+    return json.loads(json.dumps(value))
+
+
+def modified_after(source: str, output: str) -> bool:
+    """Whether the input ``source`` (a file, or a folder's files) changed after
+    ``output`` was written."""
+    made = os.path.getmtime(output)
+    if os.path.isdir(source):
+        with os.scandir(source) as entries:
+            return any(e.stat().st_mtime > made for e in entries)
+    return os.path.exists(source) and os.path.getmtime(source) > made
+
+
+def check_output_folder(given: Optional[str], suffix: str, inputs: int, option: str) -> None:
+    """Several inputs write into a folder: refuses ``--out x.npz`` (a file's name, which
+    would become a folder) and an existing file, before anything is created."""
+    if inputs <= 1 or not given or os.path.isdir(given):
+        return
+    if os.path.exists(given):
+        raise ValueError(f"{given}: exists and is not a folder; expected a folder for "
+                         f"{option} with {inputs} inputs")
+    if given.lower().endswith((suffix,) + FILE_ENDINGS):
+        raise ValueError(f"{given}: a file name for {inputs} inputs; expected a folder for "
+                         f"{option} (a name without a file ending, or ending with '/'); "
+                         "nothing was written")
+
+
 def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: str,
               label: Callable[[tuple], str]) -> Tuple[List, int]:
     """Runs ``function(*job)`` for every job, on ``workers`` processes (1 = here), with a
-    progress bar on stderr for more than one job. A job that raises is reported as
+    progress bar on stderr (see :func:`progress`). A job that raises is reported as
     ``liff <command>: <label>: <error>`` and the rest go on.
 
     Returns (results in job order, None for failures; number of failures).
@@ -123,7 +281,7 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
     def report(i: int, error: BaseException) -> None:
         nonlocal failures
         failures += 1
-        name, text = label(jobs[i]), str(error)
+        name, text = label(jobs[i]), name_flags(str(error))
         # readers' messages already start with the path
         message = f"liff {command}: " + (text if text.startswith(name) else f"{name}: {text}")
         (progress.write(message, file=sys.stderr) if progress else print(message, file=sys.stderr))
@@ -163,12 +321,24 @@ def _set_threads(threads: int) -> None:
     liff.setNumThreads(threads)
 
 
-def _progress(total: int, command: str):
-    """A tqdm bar for batches (None for a single job or when stderr is not a terminal
-    and LIFF_PROGRESS is unset)."""
-    if total <= 1:
-        return None
+@contextmanager
+def step(text: str):
+    """Says on stderr that a step without a progress bar starts, and how long it took."""
+    print(f"{text} ...", file=sys.stderr, flush=True)
+    start = time.perf_counter()
+    yield
+    print(f"{text}: done in {time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
+
+
+def progress(iterable=None, desc: str = "liff", total: Optional[int] = None, unit: str = "file"):
+    """A tqdm progress bar on stderr, shown when stderr is a terminal or LIFF_PROGRESS
+    is set (so logs and tests stay clean)."""
     from tqdm import tqdm
 
-    return tqdm(total=total, desc=f"liff {command}", unit="file", file=sys.stderr,
+    return tqdm(iterable, desc=desc, total=total, unit=unit, file=sys.stderr,
                 disable=None if "LIFF_PROGRESS" not in os.environ else False)
+
+
+def _progress(total: int, command: str):
+    """A bar for the jobs of a batch (even one: a large light field takes seconds)."""
+    return progress(desc=f"liff {command}", total=total) if total else None

@@ -3,11 +3,20 @@
 from __future__ import annotations
 
 import argparse
+import math
 import os
+import sys
+import time
+import warnings
+from typing import List, NamedTuple, Optional, Tuple
 
-from .. import __version__
-from ..feature_file import Features, centre_view, save_features
+import cv2
+
+from .. import __version__, batch
+from .._warnings import LiffWarning
+from ..feature_file import Features, centre_view, read_meta, save_features
 from ..io.images import write_image
+from ..outputs import atomic_output, refuse_inputs
 from ..plot import draw_keypoints_by_slope
 from . import common, mask
 
@@ -17,19 +26,37 @@ def add_parser(sub) -> None:
         "detect", help="detect LiFF features in light fields",
         description="Detects LiFF features in each light field and writes them to an .npz "
                     "(keypoints as rows x, y, size, angle, response, octave; slopes; "
-                    "descriptors; the centre view). Several inputs: --out is a folder.")
-    p.add_argument("paths", nargs="+", metavar="PATH", help="light field files or folders")
+                    "descriptors; the centre view; how they were made). Several inputs: "
+                    "--out is a folder. An output that exists is kept if it was made with the "
+                    "same settings from the same input, redone otherwise (and said so).")
+    p.add_argument("paths", nargs="*", metavar="PATH",
+                   help="light fields (files or folders of views), folders of light fields, or "
+                        "quoted glob patterns")
+    p.add_argument("--from-list", default=None, metavar="FILE",
+                   help="a text file of more inputs, one a line (# comments), so a dataset "
+                        "need not fit on the command line")
     p.add_argument("--out", default=None,
                    help="output .npz (one input) or folder (default: <name>.npz here)")
     p.add_argument("--plot", default=None,
                    help="also draw the features over the centre view: a .png (one input) or "
                         "a folder")
-    p.add_argument("--workers", type=int, default=1, help="processes for many inputs (default 1)")
-    p.add_argument("--overwrite", action="store_true", help="redo outputs that already exist")
+    p.add_argument("--workers", type=int, default=1,
+                   help="local processes for many inputs (default 1)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="run each light field as a task on the Dask cluster of this scheduler "
+                        "(e.g. tcp://10.0.0.5:8786; pip install 'liff[dask]'); see "
+                        "docs/BATCH.md")
+    p.add_argument("--manifest", default=None, metavar="CSV",
+                   help="write the run's manifest (input, output, status, features, slope "
+                        "range, seconds, CPU seconds, error, worker) here (default for several inputs: "
+                        "OUT/manifest-<UTC time>.csv)")
     mask.add_mask_option(p)
+    p.add_argument("--overwrite", action="store_true",
+                   help="redo outputs that exist even if made with the same settings, and "
+                        "replace files at the output paths that are not liff feature files")
     common.add_reader_options(p)
     common.add_detector_options(p)
-    p.set_defaults(run=run)
+    p.set_defaults(run=run, parser=p)
 
 
 def destination(given, path: str, suffix: str, many: bool, force_suffix: bool = True) -> str:
@@ -46,52 +73,199 @@ def destination(given, path: str, suffix: str, many: bool, force_suffix: bool = 
     return given if given.endswith(suffix) or not force_suffix else given + suffix
 
 
+def settings(path: str, options: dict, preprocess: bool, parameters: dict,
+             mask_spec: Optional[str] = None) -> dict:
+    """How a feature file is made, as recorded in its ``meta``: an existing output is
+    kept only if these are equal (JSON's view of them: tuples are lists)."""
+    return dict(source=os.path.abspath(path), reader_options=options, preprocess=preprocess,
+                parameters=parameters, mask=mask_spec, liff_version=__version__)
+
+
+class Detected(NamedTuple):
+    """What :func:`detect_one` found: the feature count, the slope range searched (the
+    first and last searched slice's slope), the slices searched and built, where the
+    range came from ("automatic", "given", or the reader's: "parameters.cfg"), and the
+    warnings about the input (one line each)."""
+
+    features: int
+    slope_range: Tuple[float, float]
+    searched: int = 0
+    built: int = 0
+    slopes_from: str = "automatic"
+    notes: Tuple[str, ...] = ()
+
+
+def range_hint(parameters: dict, metadata: dict) -> Tuple[dict, str]:
+    """The detector parameters to use, and where their slope range comes from: a range
+    the user gave ("given"); else the one a reader knows (an HCI scene's parameters.cfg
+    disp_min and disp_max: "parameters.cfg"); else the automatic range ("automatic")."""
+    first, last = parameters["firstSlope"], parameters["lastSlope"]
+    if math.isfinite(first) or math.isfinite(last):
+        return parameters, "given"
+    lo, hi = metadata.get("disp_min"), metadata.get("disp_max")
+    if lo is not None and hi is not None and lo < hi:
+        return dict(parameters, firstSlope=float(lo), lastSlope=float(hi)), "parameters.cfg"
+    return parameters, "automatic"
+
+
 def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
-               parameters: dict, mask_spec=None) -> int:
-    """Reads, detects and writes one light field; returns the feature count."""
-    light_field = common.load_light_field(path, options, preprocess)
+               parameters: dict, mask_spec: Optional[str] = None) -> Detected:
+    """Reads, detects and writes one light field; returns what it found."""
+    light_field, metadata = common.read_input(path, options, preprocess)
+    parameters, slopes_from = range_hint(parameters, metadata)
     detector = common.make_detector(parameters)
-    keypoints, descriptors = detector.detectAndCompute(
-        light_field, mask.load_mask(mask_spec, light_field, path))
-    meta = dict(source=os.path.abspath(path), shape=list(light_field.shape),
-                parameters=parameters, preprocess=preprocess, mask=mask_spec,
-                liff_version=__version__)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", LiffWarning)
+        keypoints, descriptors = detector.detectAndCompute(
+            light_field, mask.load_mask(mask_spec, light_field, path))
+    notes = [str(w.message) for w in caught if issubclass(w.category, LiffWarning)]
+    searched, built = detector.getSearchedSlopes(), detector.getSlicesUsed()
+    slope_range = (searched[0], searched[-1]) if searched else (float("nan"), float("nan"))
+    meta = dict(settings(path, options, preprocess, parameters, mask_spec),
+                shape=list(light_field.shape), slopes_searched=searched, slopes_from=slopes_from)
     view = centre_view(light_field)
-    save_features(out, Features(tuple(keypoints), descriptors, view, meta))
+    with atomic_output(out) as partial:
+        save_features(partial, Features(tuple(keypoints), descriptors, view, meta))
     if plot:
-        used = detector.getSlicesUsed()  # the range the detector searched
-        slope_range = (used[0], used[-1]) if len(used) > 1 else None
-        write_image(plot, draw_keypoints_by_slope(view, keypoints, slope_range))
-    return len(keypoints)
+        with atomic_output(plot) as partial:
+            picture = draw_keypoints_by_slope(view, keypoints, (built[0], built[-1]))
+            write_image(partial, picture)
+    return Detected(len(keypoints), slope_range, len(searched), len(built), slopes_from, notes)
 
 
-def run(args: argparse.Namespace) -> int:
+def changes(out: str, plot: Optional[str], wanted: dict) -> Optional[List[str]]:
+    """What makes the existing ``out`` (and ``plot``) stale: None if they can be kept,
+    [] if missing, else the differences ("nfeatures 0 -> 10", "the input is newer").
+
+    Raises
+    ------
+    ValueError
+        If ``out`` exists and is not a liff feature file: it is not ours to replace.
+    """
+    if not os.path.exists(out):
+        return []
+    made = read_meta(out)
+    if made is None:
+        raise ValueError(f"{out}: exists and is not a liff feature file; expected a new output "
+                         "path (or --overwrite to replace it)")
+    old = {key: made.get(key) for key in wanted}
+    old.update({f"parameters.{k}": v for k, v in (made.get("parameters") or {}).items()})
+    new = common.json_like(wanted)
+    new.update({f"parameters.{k}": v for k, v in new["parameters"].items()})
+    differ = [f"{key.replace('parameters.', '').replace('_', ' ')} {old.get(key)} -> {value}"
+              for key, value in new.items() if key != "parameters" and old.get(key) != value]
+    if not differ and common.modified_after(wanted["source"], out):
+        differ = ["the input changed after the output was made"]
+    if not differ and plot and not os.path.exists(plot):
+        return []
+    return differ or None
+
+
+def plan(args: argparse.Namespace, options: dict, parameters: dict) -> tuple:
+    """(tasks to run, outcomes of outputs kept, {output: reasons} of those redone) for
+    ``args.paths`` (and ``--from-list``), ``--out``, ``--plot`` and ``--overwrite``.
+
+    Raises
+    ------
+    ValueError
+        Before anything is written: outputs over inputs, colliding outputs, a file name
+        for several inputs, a plot OpenCV cannot write, a foreign file in the way.
+    """
+    args.paths = common.expand_inputs(args.paths, options, args.from_list)
+    if not args.paths:
+        raise ValueError("no input; expected light fields as PATH arguments or --from-list")
     many = len(args.paths) > 1
-    for folder in (args.out, args.plot):
-        if many and folder and os.path.exists(folder) and not os.path.isdir(folder):
-            raise ValueError(f"{folder}: exists and is not a folder; expected a folder for "
-                             f"{len(args.paths)} inputs")
-    jobs, skipped, seen = [], 0, {}
+    common.check_output_folder(args.out, ".npz", len(args.paths), "--out")
+    if args.plot:
+        common.check_output_folder(args.plot, ".png", len(args.paths), "--plot")
+    tasks, kept, redo, seen = [], [], {}, {}
     for path in args.paths:
         out = destination(args.out, path, ".npz", many)
         plot = destination(args.plot, path, ".png", many, force_suffix=False) if args.plot else None
+        if plot and not cv2.haveImageWriter(plot):
+            raise ValueError(f"{plot}: OpenCV cannot write this kind of image; expected --plot "
+                             "with an image ending such as .png or .jpg, or a folder")
         if out in seen:
             raise ValueError(f"{path} and {seen[out]} would both write {out}; expected inputs "
                              "with distinct names (or one --out per run)")
         seen[out] = path
-        if not args.overwrite and os.path.exists(out) and (plot is None or os.path.exists(plot)):
-            skipped += 1
+        refuse_inputs([out], args.paths, "--out")
+        if plot:
+            refuse_inputs([plot], args.paths, "--plot")
+        mask_spec = getattr(args, "mask", None)  # (liff.batch.detect has no --mask)
+        task = batch.Task(path, out, plot, options, args.preprocess, parameters, mask_spec)
+        stale = [] if args.overwrite else changes(out, plot, settings(
+            path, options, args.preprocess, parameters, mask_spec))
+        if stale is None:
+            kept.append(batch.Outcome(path, out, "kept"))
             continue
-        for target in (out, plot):
-            if target and os.path.dirname(target):
-                os.makedirs(os.path.dirname(target), exist_ok=True)
-        jobs.append((path, out, plot, common.reader_options(args), args.preprocess,
-                     common.detector_parameters(args), args.mask))
-    counts, failures = common.run_batch(detect_one, jobs, args.workers, "detect",
-                                        label=lambda job: job[0])
-    for job, count in zip(jobs, counts):
-        if count is not None:
-            print(f"{job[0]}: {count} features -> {job[1]}" + (f", {job[2]}" if job[2] else ""))
-    if skipped:
-        print(f"skipped {skipped} input(s) whose outputs exist (--overwrite to redo them)")
-    return 1 if failures else 0
+        if stale:
+            redo[out] = stale
+        tasks.append(task)
+    return tasks, kept, redo
+
+
+def run_tasks(tasks: List[batch.Task], args: argparse.Namespace) -> List[batch.Outcome]:
+    """Runs the tasks on the Dask cluster of ``--scheduler`` or on ``--workers`` local
+    processes, with a progress bar; failures are reported as they come."""
+    def report(outcome: batch.Outcome) -> None:
+        if outcome.error:
+            bar.write(f"liff detect: {outcome.input}: {common.name_flags(outcome.error)}",
+                      file=sys.stderr)
+        bar.update()
+
+    if args.scheduler:
+        with common.progress(desc="liff detect", total=len(tasks)) as bar:
+            return batch.run(tasks, args.scheduler, progress=report)
+    outcomes, _ = common.run_batch(batch.run_task, [(task,) for task in tasks], args.workers,
+                                   "detect", label=lambda job: job[0].source)
+    outcomes = [o or batch.Outcome(t.source, t.output, "failed", error="reported above")
+                for t, o in zip(tasks, outcomes)]
+    for outcome in outcomes:
+        if outcome.error and outcome.error != "reported above":
+            print(f"liff detect: {outcome.input}: {common.name_flags(outcome.error)}",
+                  file=sys.stderr)
+    return outcomes
+
+
+def manifest_path(args: argparse.Namespace) -> Optional[str]:
+    """``--manifest``, else ``OUT/manifest-<UTC time>.csv`` for a batch (several inputs,
+    or --scheduler) into a folder ``--out``."""
+    batch_run = len(args.paths) > 1 or args.scheduler
+    if args.manifest or not (batch_run and args.out and os.path.isdir(args.out)):
+        return args.manifest
+    return os.path.join(args.out, time.strftime("manifest-%Y%m%d-%H%M%S.csv", time.gmtime()))
+
+
+def describe_slopes(outcome: batch.Outcome) -> str:
+    """One line part: the slope range searched, its source and the slices it took."""
+    if outcome.searched is None:
+        return "slopes: -"
+    return (f"slopes {outcome.first_slope:+.2f} to {outcome.last_slope:+.2f} "
+            f"({outcome.slopes_from}), {outcome.searched} slices searched of {outcome.built} built")
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.paths and not args.from_list:
+        args.parser.error("the following arguments are required: PATH (or --from-list FILE)")
+    tasks, kept, redo = plan(args, common.reader_options(args), common.detector_parameters(args))
+    for out, reasons in redo.items():
+        print(f"redoing {out}, out of date: {'; '.join(reasons)}")
+    outcomes = run_tasks(tasks, args)
+    for task, outcome in zip(tasks, outcomes):
+        if outcome.status == "done":
+            print(f"{outcome.input}: {outcome.features} features -> {outcome.output}"
+                  + (f", {task.plot}" if task.plot else "") + f"; {describe_slopes(outcome)}")
+            for note in filter(None, outcome.notes.split("\n")):
+                print(f"liff detect: {outcome.input}: warning: {note}", file=sys.stderr)
+    if kept:
+        print(f"skipped {len(kept)} input(s) whose outputs exist, made with the same settings "
+              "(--overwrite to redo them)")
+    failed = sum(outcome.status == "failed" for outcome in outcomes)
+    manifest = manifest_path(args)
+    if manifest and (tasks or args.manifest):
+        batch.write_manifest(manifest, outcomes + kept)
+        print(f"manifest: {manifest}")
+    if failed:
+        print(f"liff detect: {failed} of {len(tasks)} light field(s) failed", file=sys.stderr)
+    return 1 if failed else 0

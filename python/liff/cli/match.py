@@ -3,14 +3,22 @@
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 
 from ..feature_file import Features, features_from_light_field, load_features
 from ..io.images import write_image
-from ..matching import draw_inliers, ratio_matches, verify
+from ..matching import chance_inliers, draw_inliers, ratio_matches, verify
 from ..plot import to_display
+from ..outputs import atomic_output, refuse_inputs
 from . import common
+
+#: Fewer RANSAC inliers than this do not show that two views share a scene (COLMAP's
+#: two-view verification needs 15: TwoViewGeometryOptions.min_num_inliers), nor fewer
+#: than CHANCE_FACTOR times what RANSAC keeps among randomly re-paired matches.
+MIN_INLIERS = 15
+CHANCE_FACTOR = 2
 
 
 def add_parser(sub) -> None:
@@ -18,9 +26,11 @@ def add_parser(sub) -> None:
         "match", help="match the features of two light fields",
         description="Matches two feature files from `liff detect` (or two light fields, "
                     "detected on the fly): nearest neighbours with Lowe's ratio test, then "
-                    "RANSAC. Prints the putative and inlier counts.")
+                    f"RANSAC. Prints the putative and inlier counts, and warns when the inliers are "
+                    f"too few to show a shared scene: below {MIN_INLIERS}, or below "
+                    f"{CHANCE_FACTOR}x what RANSAC keeps among randomly re-paired matches.")
     p.add_argument("a", help="feature file (.npz from liff detect) or light field")
-    p.add_argument("b", help="feature file or light field")
+    p.add_argument("b", help="feature file (.npz from liff detect) or light field")
     p.add_argument("--plot", default=None, help="picture of the inlier matches (.png)")
     p.add_argument("--ratio", type=float, default=0.75, help="ratio test (default 0.75)")
     p.add_argument("--model", choices=("homography", "fundamental"), default="homography",
@@ -50,16 +60,24 @@ def features_of(path: str, args: argparse.Namespace) -> Features:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.plot:
+        refuse_inputs([args.plot], [args.a, args.b], "--plot")
     fa, fb = features_of(args.a, args), features_of(args.b, args)
     matches = ratio_matches(fa.descriptors, fb.descriptors, args.ratio)
     result = verify(fa.keypoints, fb.keypoints, matches, args.model, args.threshold)
     print(f"{args.a}: {len(fa.keypoints)} features; {args.b}: {len(fb.keypoints)} features")
     print(f"putative matches: {len(matches)}; inliers ({args.model}, {args.threshold:g} px): "
           f"{result.inlier_count}")
+    chance = chance_inliers(fa.keypoints, fb.keypoints, matches, args.model, args.threshold)
+    if result.inlier_count < max(MIN_INLIERS, CHANCE_FACTOR * chance):
+        print(f"warning: {result.inlier_count} inliers are too few to show that the two share a "
+              f"scene (expected at least {MIN_INLIERS}, and {CHANCE_FACTOR}x the {chance} that "
+              "RANSAC keeps among randomly re-paired matches)", file=sys.stderr)
     if args.plot:
         if fa.centre_view is None or fb.centre_view is None:
             raise ValueError("--plot needs the centre views; the feature files hold none")
         picture = draw_inliers(to_display(fa.centre_view), fa.keypoints,
                                to_display(fb.centre_view), fb.keypoints, result)
-        write_image(args.plot, picture)
+        with atomic_output(args.plot) as partial:
+            write_image(partial, picture)
     return 0

@@ -1,0 +1,7 @@
+"""``python -m liff``: the ``liff`` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

@@ -1,0 +1,258 @@
+"""Dataset-scale detection: one task per light field, on a Dask cluster or local processes.
+
+``liff detect PATHS --out DIR --scheduler ADDRESS`` and :func:`detect` run each light
+field as a task on a Dask distributed cluster (``pip install 'liff[dask]'``; start it
+with Dask's own ``dask scheduler`` and ``dask worker ADDRESS``). What survives what:
+
+- a worker that dies mid-run: Dask runs its tasks on the other workers;
+- a light field that fails (damaged file, wrong format, too large): its
+  :class:`Outcome` carries the error, the rest go on;
+- a run killed at any moment: every output is written to a temporary name and renamed
+  when complete (:mod:`liff.outputs`), so none is truncated; a re-run redoes only what
+  is missing or was made with other settings (:func:`liff.cli.detect.changes`);
+- an unreachable scheduler: :class:`ValueError` within ``timeout`` seconds.
+
+On a worker a task takes the worker's resources: LiFF runs one light field at a time
+per worker process with the worker's thread count (``liff.setNumThreads``) and a memory
+limit from the worker's (``setMemoryLimitMB``), so a light field too large for the
+worker is refused (``MemoryError`` in its outcome) or processed in less memory, rather
+than the worker being killed for exceeding its memory.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import threading
+import time
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, fields
+from typing import List, NamedTuple, Optional, Sequence, Union
+
+from .outputs import atomic_output
+
+#: What each task may use of its worker's memory limit (Dask's nanny pauses a worker at
+#: 80% and kills it at 95%), less what the process already holds.
+MEMORY_SHARE = 0.75
+#: Seconds to wait for a scheduler before saying it cannot be reached.
+CONNECT_TIMEOUT = 10
+
+
+class Task(NamedTuple):
+    """One light field to detect: the arguments of :func:`liff.cli.detect.detect_one`."""
+
+    source: str
+    output: str
+    plot: Optional[str]
+    reader_options: dict
+    preprocess: bool
+    parameters: dict
+    mask: Optional[str] = None  # liff detect --mask: an image, or "auto"
+
+
+@dataclass
+class Outcome:
+    """One row of a run's manifest (:func:`write_manifest`).
+
+    ``status`` is "done", "failed" or "kept" (an output made with the same settings
+    was there); ``first_slope``/``last_slope`` the slopes of the first and last slice
+    searched, ``searched``/``built`` the focal slices searched and built, and
+    ``slopes_from`` where the range came from ("automatic", "given" or a reader's
+    "parameters.cfg"); ``seconds`` the task's time on its worker (reading, detecting,
+    writing) and ``cpu_seconds`` the processor time it took (all of LiFF's threads);
+    ``notes`` the warnings about the input, one per line."""
+
+    input: str
+    output: str
+    status: str
+    features: Optional[int] = None
+    first_slope: Optional[float] = None
+    last_slope: Optional[float] = None
+    searched: Optional[int] = None
+    built: Optional[int] = None
+    slopes_from: str = ""
+    seconds: Optional[float] = None
+    cpu_seconds: Optional[float] = None
+    error: str = ""
+    worker: str = ""
+    notes: str = ""
+
+
+_ONE_AT_A_TIME = threading.Lock()  # per worker process: LiFF already uses every thread
+
+
+def run_task(task: Task) -> Outcome:
+    """Runs one task where it is (a Dask worker, a local process, here) and returns its
+    outcome; an error reading, detecting or writing is in ``Outcome.error``, not raised."""
+    from .cli.detect import detect_one
+
+    with _ONE_AT_A_TIME, _worker_resources() as worker:
+        start, cpu = time.perf_counter(), time.process_time()
+        try:
+            result = detect_one(*task)
+            outcome = Outcome(task.source, task.output, "done", result.features,
+                              *result.slope_range, result.searched, result.built,
+                              result.slopes_from, notes="\n".join(result.notes))
+        except Exception as error:  # reported in the manifest, as every failure of a task
+            outcome = Outcome(task.source, task.output, "failed",
+                              error=f"{type(error).__name__}: {error}")
+        outcome.seconds = round(time.perf_counter() - start, 3)
+        outcome.cpu_seconds = round(time.process_time() - cpu, 3)
+        outcome.worker = worker
+    return outcome
+
+
+@contextmanager
+def _worker_resources():
+    """On a Dask worker, LiFF's threads and memory limit from the worker's for the
+    duration of a task (then restored: an in-process worker shares them with its
+    client); yields the worker's address, or '' elsewhere, where nothing changes."""
+    try:
+        from distributed import get_worker
+
+        worker = get_worker()
+    except (ImportError, ValueError):  # not on a Dask worker
+        yield ""
+        return
+    import psutil
+
+    from . import getNumThreads, setNumThreads
+    from .cli import common
+
+    threads, memory = getNumThreads(), common.memory_limit_mb
+    setNumThreads(worker.state.nthreads)
+    limit = worker.memory_manager.memory_limit
+    if limit:
+        held = psutil.Process().memory_info().rss
+        common.memory_limit_mb = max(1, int((MEMORY_SHARE * limit - held) / 2**20))
+    try:
+        yield worker.address
+    finally:
+        setNumThreads(threads)
+        common.memory_limit_mb = memory
+
+
+def connect(client) -> "distributed.Client":
+    """A ``distributed.Client``: ``client`` itself, or one connected to the scheduler at
+    the address ``client``.
+
+    Raises
+    ------
+    ImportError
+        Without Dask (``pip install 'liff[dask]'``).
+    ValueError
+        If no scheduler answers at the address within :data:`CONNECT_TIMEOUT` seconds.
+    """
+    try:
+        import distributed
+    except ImportError:
+        raise ImportError("a Dask cluster needs dask and distributed: pip install 'liff[dask]'") from None
+    if isinstance(client, distributed.Client):
+        return client
+    try:
+        return distributed.Client(client, timeout=CONNECT_TIMEOUT)
+    except (OSError, TimeoutError) as error:
+        raise ValueError(f"cannot reach a Dask scheduler at {client} within {CONNECT_TIMEOUT} s "
+                         f"({error}); expected the address of a running `dask scheduler`, "
+                         "e.g. tcp://10.0.0.5:8786") from None
+
+
+def run(tasks: Sequence[Task], client, progress=None) -> List[Outcome]:
+    """Runs every task on the Dask cluster of ``client`` (a ``distributed.Client`` or a
+    scheduler's address) and returns their outcomes in task order.
+
+    ``progress``: a callable told each outcome as it arrives (e.g. a progress bar's)."""
+    own = not _is_client(client)  # made here from an address: closed here
+    client = connect(client)
+    try:
+        return _gather(client, tasks, progress)
+    finally:
+        if own:
+            client.close()
+
+
+def _is_client(client) -> bool:
+    try:
+        from distributed import Client
+    except ImportError:
+        return False
+    return isinstance(client, Client)
+
+
+def _gather(client, tasks: Sequence[Task], progress) -> List[Outcome]:
+    """Submits every task and collects the outcomes, in task order, as they complete."""
+    from distributed import as_completed
+
+    futures = client.map(run_task, list(tasks), pure=False)
+    index = {future.key: i for i, future in enumerate(futures)}
+    outcomes: List[Optional[Outcome]] = [None] * len(futures)
+    for future in as_completed(futures):
+        i = index[future.key]
+        try:
+            outcomes[i] = future.result()
+        except Exception as error:  # e.g. KilledWorker: the task killed every worker it met
+            outcomes[i] = Outcome(tasks[i].source, tasks[i].output, "failed",
+                                  error=f"{type(error).__name__}: {error}")
+        if progress:
+            progress(outcomes[i])
+    return outcomes
+
+
+def write_manifest(path: str, outcomes: Sequence[Outcome]) -> None:
+    """Writes the outcomes as CSV (one row per light field, a header of the
+    :class:`Outcome` fields), which pandas (``pd.read_csv``) and spreadsheets read."""
+    with atomic_output(path) as partial, open(partial, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=[field.name for field in fields(Outcome)])
+        writer.writeheader()
+        writer.writerows(asdict(outcome) for outcome in outcomes)
+
+
+def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
+           reader_options: Optional[dict] = None, preprocess: bool = False,
+           overwrite: bool = False, manifest: Optional[str] = None, **parameters) -> List[Outcome]:
+    """LiFF features of many light fields, one ``.npz`` each in the folder ``out``.
+
+    Parameters
+    ----------
+    paths : sequence of str
+        Light fields, folders of light fields, glob patterns (see
+        :func:`liff.cli.common.expand_inputs`).
+    out : str
+        Output folder (created if missing).
+    client : distributed.Client or str, optional
+        A Dask client or a scheduler's address; without it, ``workers`` local processes.
+    reader_options, preprocess
+        As :func:`liff.io.read_light_field` takes them, and the paper's preprocessing.
+    overwrite : bool
+        Redo outputs made with the same settings too.
+    manifest : str, optional
+        Where to write the run's manifest (CSV).
+    **parameters
+        ``liff.LiFF.create`` keywords.
+
+    Returns
+    -------
+    list of Outcome
+        One per light field: done, failed (with the error) or kept.
+    """
+    import argparse
+
+    from . import PARAMETERS
+    from .cli import common
+    from .cli.detect import plan
+
+    args = argparse.Namespace(paths=list(paths), out=os.path.join(out, ""), plot=None,
+                              overwrite=overwrite, preprocess=preprocess, from_list=None)
+    wanted = {p.name: parameters.pop(p.name, p.default) for p in PARAMETERS}
+    if parameters:
+        raise TypeError(f"unknown parameter(s) {sorted(parameters)}; expected liff.LiFF.create "
+                        "keywords")
+    tasks, kept, _ = plan(args, dict(reader_options or {}), wanted)
+    if client is not None:
+        outcomes = run(tasks, client)
+    else:
+        outcomes = common.run_batch(run_task, [(t,) for t in tasks], workers, "detect", str)[0]
+    outcomes += kept
+    if manifest:
+        write_manifest(manifest, outcomes)
+    return outcomes

@@ -1,0 +1,193 @@
+"""Issue 14: batches on Dask (liff.batch, liff detect --scheduler) that survive faults,
+with inputs from folders, globs and lists, a manifest per run, and each task held to
+its worker's threads and memory."""
+
+from __future__ import annotations
+
+import csv
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import liff
+from liff import batch
+from liff.cli import main
+from liff.feature_file import load_features
+
+distributed = pytest.importorskip("distributed", reason="pip install 'liff[dask]'")
+dask = pytest.importorskip("dask")
+
+
+def write_light_fields(folder, count, shape=(3, 3, 64, 64), prefix="lf"):
+    """``count`` different small light fields (layers scenes of different seeds), .npy."""
+    os.makedirs(folder, exist_ok=True)
+    paths = []
+    for i in range(count):
+        lf = liff.synthetic.textured_layers(shape, seed=i, noise_variance=0).light_field
+        paths.append(os.path.join(folder, f"{prefix}{i:02d}.npy"))
+        np.save(paths[-1], lf)
+    return paths
+
+
+def read_manifest(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """An in-process LocalCluster of two one-thread workers."""
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=":0") as local, distributed.Client(local) as client:
+        yield client
+
+
+def test_local_cluster_batch_equals_the_api_and_reports_failures(cluster, tmp_path):
+    paths = write_light_fields(tmp_path / "in", 3)
+    damaged = tmp_path / "in" / "damaged.npy"
+    damaged.write_bytes(b"\x93NUMPY not really")
+    outcomes = batch.detect([str(tmp_path / "in")], str(tmp_path / "out"), client=cluster,
+                            manifest=str(tmp_path / "m.csv"), contrastThreshold=0.02)
+    assert [o.status for o in outcomes] == ["failed", "done", "done", "done"]  # sorted names
+    assert "damaged.npy" in outcomes[0].error
+    for path, outcome in zip(paths, outcomes[1:]):
+        features = load_features(outcome.output)
+        expected = liff.LiFF.create(contrastThreshold=0.02).detect(np.load(path))
+        assert len(features.keypoints) == outcome.features == len(expected)
+        assert outcome.worker.startswith(("tcp://", "inproc://"))
+    rows = read_manifest(tmp_path / "m.csv")
+    assert list(rows[0]) == ["input", "output", "status", "features", "first_slope",
+                             "last_slope", "searched", "built", "slopes_from", "seconds",
+                             "cpu_seconds", "error", "worker", "notes"]
+    assert [r["status"] for r in rows] == ["failed", "done", "done", "done"]
+    assert rows[1]["slopes_from"] == "automatic" and float(rows[1]["seconds"]) > 0
+    assert float(rows[1]["first_slope"]) <= float(rows[1]["last_slope"])
+    assert int(rows[1]["built"]) >= int(rows[1]["searched"]) >= 1
+    # A re-run does only what is missing.
+    os.remove(outcomes[2].output)
+    again = batch.detect([str(tmp_path / "in")], str(tmp_path / "out"), client=cluster,
+                         contrastThreshold=0.02)
+    assert sorted(o.status for o in again) == ["done", "failed", "kept", "kept"]
+    assert next(o for o in again if o.status == "done").output == outcomes[2].output
+
+
+def test_a_task_takes_its_workers_threads_and_memory(tmp_path, monkeypatch):
+    """A worker's thread count becomes LiFF's; its memory limit bounds each task, so a
+    light field too large for the worker fails with MemoryError instead of killing it."""
+    import psutil
+
+    small = write_light_fields(tmp_path, 1, (3, 3, 32, 32), "small")
+    large = write_light_fields(tmp_path, 1, (3, 3, 512, 512), "large")  # needs about 150 MB
+    held = psutil.Process().memory_info().rss
+    limit = int((held + 60 * 2**20) / batch.MEMORY_SHARE)  # about 60 MB for each task
+    threads, memory = liff.getNumThreads(), liff.cli.common.memory_limit_mb
+    # The worker shares this test process, already near the limit: Dask must not pause it.
+    no_pausing = {f"distributed.worker.memory.{k}": False for k in ("target", "spill", "pause",
+                                                                     "terminate")}
+    try:
+        with dask.config.set(no_pausing), \
+                distributed.LocalCluster(n_workers=1, threads_per_worker=3, processes=False,
+                                         memory_limit=limit, dashboard_address=":0") as local, \
+                distributed.Client(local) as client:
+            outcomes = batch.detect(small + large, str(tmp_path / "out"), client=client)
+            seen = []
+
+            def spy(*task):  # what a task sees (the worker is in this process)
+                seen.append((liff.getNumThreads(), liff.cli.common.memory_limit_mb))
+                return liff.cli.detect.Detected(0, (0.0, 0.0))
+
+            monkeypatch.setattr(liff.cli.detect, "detect_one", spy)
+            client.submit(batch.run_task, batch.Task(*small * 2, None, {}, False, {}),
+                          pure=False).result()
+            assert seen[0][0] == 3 and 1 <= seen[0][1] <= 60  # threads; MB left of the limit
+    finally:
+        assert (liff.getNumThreads(), liff.cli.common.memory_limit_mb) == (threads, memory)
+    assert [o.status for o in outcomes] == ["done", "failed"]
+    assert outcomes[1].error.startswith("MemoryError") and "MB" in outcomes[1].error
+
+
+def test_inputs_from_folders_globs_and_a_list(tmp_path, capsys):
+    paths = write_light_fields(tmp_path / "in", 4)
+    listing = tmp_path / "list.txt"
+    listing.write_text(f"# two of them\n{paths[2]}\n\n{paths[3]}\n")
+    out = tmp_path / "out"
+    assert main(["detect", str(tmp_path / "in" / "lf0[01].npy"), "--from-list", str(listing),
+                 "--out", str(out)]) == 0
+    assert sorted(os.listdir(out))[:4] == ["lf00.npz", "lf01.npz", "lf02.npz", "lf03.npz"]
+    manifest = capsys.readouterr().out.split("manifest: ")[1].strip()
+    assert [r["input"] for r in read_manifest(manifest)] == paths
+    assert main(["detect", str(tmp_path / "in"), "--out", str(out)]) == 0  # a folder: all kept
+    assert "skipped 4 input(s)" in capsys.readouterr().out
+    assert main(["detect", str(tmp_path / "nothing*.npy"), "--out", str(out)]) == 1
+    assert "no file matches the pattern" in capsys.readouterr().err
+
+
+def test_an_unreachable_scheduler_is_a_clear_error_within_seconds(tmp_path, capsys):
+    paths = write_light_fields(tmp_path / "in", 2)
+    with socket.socket() as s:  # a port nobody listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    start = time.perf_counter()
+    assert main(["detect", *paths, "--out", str(tmp_path / "out"),
+                 "--scheduler", f"tcp://127.0.0.1:{port}"]) == 1
+    assert time.perf_counter() - start < batch.CONNECT_TIMEOUT + 5
+    err = capsys.readouterr().err
+    assert f"cannot reach a Dask scheduler at tcp://127.0.0.1:{port}" in err and "Traceback" not in err
+    assert not any(n.endswith(".npz") for n in os.listdir(tmp_path / "out")) if (tmp_path / "out").exists() else True
+
+
+def _free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _dask(*args):
+    """Dask's own command (`dask scheduler`, `dask worker`), from this environment."""
+    command = os.path.join(os.path.dirname(sys.executable), "dask")
+    return subprocess.Popen([command, *args], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def test_a_worker_killed_mid_run_loses_nothing(tmp_path):
+    """`dask scheduler` and two `dask worker` processes on 127.0.0.1; one worker is
+    killed (SIGKILL) once outputs start to appear: its tasks (and the results it held)
+    run on the other, every output is complete and the run exits 0."""
+    paths = write_light_fields(tmp_path / "in", 16, (5, 5, 128, 160))
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    scheduler = _dask("scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard")
+    workers = [_dask("worker", address, "--nthreads", "1", "--no-nanny", "--no-dashboard",
+                     "--host", "127.0.0.1") for _ in range(2)]
+    try:
+        with distributed.Client(address, timeout=30) as client:
+            client.wait_for_workers(2, timeout=60)
+        out = tmp_path / "out"
+        run = subprocess.Popen([sys.executable, "-m", "liff", "detect", str(tmp_path / "in"),
+                                "--out", str(out), "--scheduler", address,
+                                "--manifest", str(tmp_path / "m.csv")],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        deadline = time.time() + 120
+        while time.time() < deadline and not (out.exists() and any(n.endswith(".npz") for n in os.listdir(out))):
+            time.sleep(0.05)
+        workers[0].send_signal(signal.SIGKILL)
+        at_kill = sum(n.endswith(".npz") for n in os.listdir(out))
+        stdout, stderr = run.communicate(timeout=300)
+        assert run.returncode == 0, stderr
+        rows = read_manifest(tmp_path / "m.csv")
+        assert len(rows) == 16 and {r["status"] for r in rows} == {"done"}, rows
+        assert 1 <= at_kill < 16, at_kill  # killed mid-run
+        for path in paths:
+            features = load_features(out / (os.path.basename(path)[:-4] + ".npz"))
+            assert len(features.keypoints) > 0
+        # What the killed worker was writing stays under a hidden temporary name, if at all.
+        assert all(n.startswith(".lf") and ".partial." in n for n in os.listdir(out) if n.startswith("."))
+    finally:
+        for process in workers + [scheduler]:
+            process.kill()
+            process.wait()

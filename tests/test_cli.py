@@ -296,3 +296,47 @@ def test_every_detector_parameter_is_an_option(disk_npz, tmp_path):
     features = load_features(out)
     assert features.meta["parameters"] == given
     assert features.descriptors.dtype == np.uint8
+
+
+def hci_folder(root, disp_min, disp_max):
+    """A 5x5-view HCI scene folder of blob layers at -1.8 and 1.6, with parameters.cfg."""
+    shape = (5, 5, 96, 96)
+    blobs = liff.synthetic.random_blob_layers([-1.8, 1.6], shape, blobs_per_layer=5, seed=2)
+    lf = np.clip(liff.synthetic.render_disks(blobs, shape, profile="gaussian"), 0, 1)
+    os.makedirs(root)
+    for t in range(5):
+        for s in range(5):
+            view = np.round(lf[t, s] * 255).astype(np.uint8)
+            cv2.imwrite(os.path.join(root, f"input_Cam{t * 5 + s:03d}.png"), cv2.merge([view] * 3))
+    with open(os.path.join(root, "parameters.cfg"), "w") as f:
+        f.write(f"[extrinsics]\nnum_cams_x = 5\nnum_cams_y = 5\n[meta]\ndisp_min = {disp_min}\n"
+                f"disp_max = {disp_max}\n")
+    return root
+
+
+def test_detect_uses_a_readers_slope_range_unless_one_is_given(tmp_path, capsys):
+    """An HCI scene's parameters.cfg range is used (and said); a range on the command
+    line wins; without either the range is automatic. The line says which."""
+    scene = hci_folder(str(tmp_path / "scene"), -2.0, 2.0)
+    assert main(["detect", scene, "--out", str(tmp_path / "a.npz")]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"slopes -2\.00 to \+2\.00 \(parameters\.cfg\), \d+ slices searched of \d+ built", out)
+    assert load_features(str(tmp_path / "a.npz")).meta["slopes_from"] == "parameters.cfg"
+    assert main(["detect", scene, "--out", str(tmp_path / "b.npz"), "--first-slope", "-1",
+                 "--last-slope", "1"]) == 0
+    assert "slopes -1.00 to +1.00 (given)" in capsys.readouterr().out
+    os.remove(os.path.join(scene, "parameters.cfg"))
+    assert main(["detect", scene, "--out", str(tmp_path / "c.npz")]) == 0
+    line = capsys.readouterr().out
+    assert "(automatic)" in line
+    first, last = map(float, re.search(r"slopes ([-+.\d]+) to ([-+.\d]+)", line).groups())
+    assert first <= -1.5 and last >= 1.4
+
+
+def test_detect_warns_in_one_line_when_a_given_range_cuts_the_scene(tmp_path, capsys):
+    scene = hci_folder(str(tmp_path / "scene"), -2.0, 2.0)
+    assert main(["detect", scene, "--out", str(tmp_path / "a.npz"), "--first-slope", "-0.5",
+                 "--last-slope", "0.5"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    warned = [line for line in err if "warning:" in line]
+    assert len(warned) == 1 and "sit at an end of the slope range [-0.5, 0.5]" in warned[0]

@@ -3,6 +3,7 @@ real subprocess): outputs, batches, skipping, and errors that name the file."""
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import subprocess
@@ -260,16 +261,30 @@ def test_detect_plot_into_a_new_folder(disk_npz, tmp_path, capsys):
 
 
 @pytest.mark.parametrize("kind", ["disks", "layers"])
-@pytest.mark.parametrize("options, message", [
-    (["--size", "0", "0"], "shape"), (["--size", "32", "-4"], "shape"),
-    (["--views", "0"], "shape"), (["--noise", "-1"], "noise_variance"),
-    (["--noise", "nan"], "noise_variance"), (["--noise", "inf"], "noise_variance")])
-def test_synth_refuses_bad_sizes_and_noise(tmp_path, capsys, kind, options, message):
+@pytest.mark.parametrize("options, flag", [
+    (["--size", "0", "0"], "--size"), (["--size", "32", "-4"], "--size"),
+    (["--views", "0"], "--views"), (["--views", "-3"], "--views"), (["--noise", "-1"], "--noise"),
+    (["--noise", "nan"], "--noise"), (["--noise", "inf"], "--noise")])
+def test_synth_refuses_bad_sizes_and_noise(tmp_path, capsys, kind, options, flag):
+    """Usage errors (exit 2) that name the flag and the values expected, before
+    anything is made."""
     out = tmp_path / "lf.npz"
-    assert main(["synth", kind, "--out", str(out), *options]) == 1
+    with pytest.raises(SystemExit) as exit_:
+        main(["synth", kind, "--out", str(out), *options])
     err = capsys.readouterr().err
-    assert err.startswith("liff synth: ") and message in err and "Traceback" not in err
-    assert not out.exists()
+    assert exit_.value.code == 2 and f"argument {flag}" in err and "expected" in err
+    assert "Traceback" not in err and not out.exists()
+
+
+@pytest.mark.parametrize("argv", [["match", "a.npz", "b.npz", "--ratio", "0"],
+                                  ["match", "a.npz", "b.npz", "--threshold", "-1"],
+                                  ["detect", "a.npz", "--workers", "0"],
+                                  ["detect", "a.npz", "--first-slope", "nan"]])
+def test_bad_option_values_are_usage_errors_naming_the_flag(capsys, argv):
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and f"argument {argv[-2]}" in err and "expected" in err
 
 
 def test_every_detector_parameter_is_an_option(disk_npz, tmp_path):
@@ -331,6 +346,25 @@ def test_detect_uses_a_readers_slope_range_unless_one_is_given(tmp_path, capsys)
     assert "(automatic)" in line
     first, last = map(float, re.search(r"slopes ([-+.\d]+) to ([-+.\d]+)", line).groups())
     assert first <= -1.5 and last >= 1.4
+
+
+def test_detect_slope_bounds_given_win_each_end_and_a_rerun_keeps_its_output(tmp_path, capsys):
+    """Each bound given wins at its end (infinite: automatic there), the other comes
+    from parameters.cfg; the output of a run with a reader's range is kept on a re-run;
+    a bound that is not a number is a usage error naming the flag."""
+    scene = hci_folder(str(tmp_path / "scene"), -2.0, 2.0)
+    assert main(["detect", scene, "--out", str(tmp_path / "a.npz"), "--first-slope", "-1"]) == 0
+    assert re.search(r"slopes -1\.00 to \+[.\d]+ \(given \+ parameters\.cfg\)", capsys.readouterr().out)
+    assert main(["detect", scene, "--out", str(tmp_path / "b.npz"), "--first-slope=-inf",
+                 "--last-slope=inf"]) == 0
+    assert "(given)" in capsys.readouterr().out
+    assert load_features(str(tmp_path / "b.npz")).meta["parameters"]["firstSlope"] == -math.inf
+    assert main(["detect", scene, "--out", str(tmp_path / "c.npz")]) == 0
+    assert main(["detect", scene, "--out", str(tmp_path / "c.npz")]) == 0
+    assert "skipped 1 input(s)" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exit_:
+        main(["detect", scene, "--out", str(tmp_path / "d.npz"), "--first-slope", "nan"])
+    assert exit_.value.code == 2 and "--first-slope" in capsys.readouterr().err
 
 
 def test_detect_warns_in_one_line_when_a_given_range_cuts_the_scene(tmp_path, capsys):

@@ -87,7 +87,7 @@ def _detect(disks, out, *options):
 @pytest.mark.parametrize("options, differs", [
     (["--nfeatures", "10"], "nfeatures 0 -> 10"),
     (["--root-sift"], "rootSift False -> True"),
-    (["--first-slope", "-0.5", "--last-slope", "0.5"], "firstSlope -inf -> -0.5"),
+    (["--first-slope", "-0.5", "--last-slope", "0.5"], "firstSlope not given -> -0.5"),
     (["--preprocess"], "preprocess False -> True"),
     (["--key", "light_field"], "reader options {} -> {'key': 'light_field'}")])
 def test_an_output_made_with_other_settings_is_redone_and_said(disks, tmp_path, capsys, options,
@@ -196,3 +196,45 @@ def test_synth_overwrite_replaces_a_views_folder_whole(tmp_path):
     assert len(os.listdir(out)) == 4
     assert liff.io.read_light_field(out).light_field.shape[:2] == (2, 2)
     assert json.loads("[]") == [n for n in os.listdir(tmp_path) if n.startswith(".")]
+
+
+def test_a_foreign_file_at_the_plot_path_is_refused_and_our_plot_is_redone(disks, tmp_path, capsys):
+    notes = tmp_path / "notes.png"
+    notes.write_text("important notes")
+    out = tmp_path / "f.npz"
+    assert main(["detect", str(disks), "--out", str(out), "--plot", str(notes)]) == 1
+    err = capsys.readouterr().err
+    assert "notes.png: exists and is not the plot of" in err and "--overwrite" in err
+    assert notes.read_text() == "important notes" and not out.exists()
+    plot = tmp_path / "p.png"
+    assert main(["detect", str(disks), "--out", str(out), "--plot", str(plot)]) == 0
+    assert main(["detect", str(disks), "--out", str(out), "--plot", str(plot), "--nfeatures", "5"]) == 0
+    assert "redoing" in capsys.readouterr().out and plot.exists()
+
+
+@pytest.mark.parametrize("target", ["input", "output", "foreign"])
+def test_a_manifest_over_an_input_an_output_or_a_foreign_file_is_refused(disks, tmp_path, capsys,
+                                                                         target):
+    out = tmp_path / "f.npz"
+    foreign = tmp_path / "precious.csv"
+    foreign.write_text("precious")
+    manifest = {"input": disks, "output": out, "foreign": foreign}[target]
+    before = manifest.read_bytes() if manifest.exists() else None
+    assert main(["detect", str(disks), "--out", str(out), "--manifest", str(manifest)]) == 1
+    assert "--manifest" in capsys.readouterr().err
+    assert (manifest.read_bytes() if manifest.exists() else None) == before
+    # a manifest of an earlier run is ours to replace
+    run_manifest = tmp_path / "run.csv"
+    assert main(["detect", str(disks), "--out", str(out), "--manifest", str(run_manifest)]) == 0
+    assert main(["detect", str(disks), "--out", str(out), "--manifest", str(run_manifest)]) == 0
+    assert "kept" in run_manifest.read_text()
+
+
+def test_sfm_refuses_a_workspace_in_an_input_folder(tmp_path, capsys):
+    poses = tmp_path / "poses"
+    assert main(["synth", "poses", "--out", str(poses), "--views", "3", "--size", "48", "64",
+                 "--poses", "2"]) == 0
+    before = sorted(os.listdir(poses))
+    assert main(["sfm", str(poses), "--workspace", str(poses)]) == 1
+    assert "inside the input folder" in capsys.readouterr().err
+    assert sorted(os.listdir(poses)) == before

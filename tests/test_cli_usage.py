@@ -8,7 +8,6 @@ import argparse
 import importlib.util
 import os
 import re
-import shlex
 import subprocess
 import sys
 

@@ -129,8 +129,12 @@ def test_wrong_python_types(kwargs):
         liff.LiFF.create(**kwargs)
 
 
-def test_first_slope_above_last_slope_fails_at_detect_time():
-    d = liff.LiFF.create(firstSlope=1.0, lastSlope=-1.0)  # allowed: may be fixed by a setter
+def test_first_slope_above_last_slope_is_refused_by_create_and_at_detect_time():
+    with pytest.raises(ValueError, match="firstSlope = 1 > lastSlope = -1"):
+        liff.LiFF.create(firstSlope=1.0, lastSlope=-1.0)
+    d = liff.LiFF.create(firstSlope=-1.0, lastSlope=1.0)
+    d.setFirstSlope(1.0)  # setters take one bound at a time; detection checks the order
+    d.setLastSlope(-1.0)
     for call in (d.detect, d.detectAndCompute):
         with pytest.raises(ValueError, match="firstSlope"):
             call(GOOD)
@@ -138,6 +142,15 @@ def test_first_slope_above_last_slope_fails_at_detect_time():
         d.slopesFor(3, 3)
     d.setLastSlope(2.0)
     assert isinstance(d.detect(GOOD), tuple)
+
+
+def test_a_detector_whose_creation_failed_has_a_safe_repr():
+    """Traceback formatters (pytest, IPython) repr the locals, including a detector
+    whose __init__ raised: that must not reach the missing C++ object."""
+    d = liff.LiFF.__new__(liff.LiFF)
+    with pytest.raises(ValueError):
+        d.__init__(contrastThreshold=-1.0)
+    assert "not initialised" in repr(d)
 
 
 def test_equal_slopes_need_a_single_slope():

@@ -79,6 +79,7 @@ def test_points_project_back_to_their_keypoints_and_sizes_scale_with_depth():
     (dict(principal_point=(1.0, float("nan"))), "principal_point"),
     (dict(principal_point=None), "principal_point"), (dict(focus_distance=0), "focus_distance"),
     (dict(focus_distance=-2), "focus_distance"), (dict(focus_distance=float("nan")), "focus_distance"),
+    (dict(focal_length="1000"), "focal_length"), (dict(baseline=True), "baseline"),
 ])
 def test_bad_camera_arguments_name_the_range(kwargs, message):
     args = dict(focal_length=300.0, baseline=0.04, principal_point=(10.0, 10.0), focus_distance=5.0)
@@ -94,6 +95,19 @@ def test_keypoints_must_be_keypoints():
 
 
 # --- HCI ---------------------------------------------------------------------------------
+
+def test_keypoints_without_a_slope_are_refused_where_the_slope_is_the_measurement():
+    """cv2.SIFT's keypoints have class_id -1, which would read as slope -1.5e-5: a
+    confident wrong depth, pose or size. Refused with what was expected."""
+    camera = liff.LightFieldCamera(500.0, 0.01, (64.0, 48.0))
+    plain = [cv2.KeyPoint(10.0 + i, 20.0, 4.0) for i in range(4)]
+    descriptors = np.eye(4, 128, dtype=np.float32)
+    for call in (lambda: camera.points_3d(plain), lambda: camera.metric_size(plain),
+                 lambda: liff.estimate_relative_pose(plain, descriptors, plain, descriptors, camera)):
+        with pytest.raises(ValueError, match="class_id -1.*expected keypoints from liff.LiFF"):
+            call()
+    assert camera.points_3d([keypoint(10, 20, 0.5)]).shape == (1, 3)
+
 
 @pytest.fixture(scope="module")
 def cotton():

@@ -29,7 +29,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import liff
-from liff.io import read_hci, read_pfm, write_pfm
+from liff.io import read_pfm, write_pfm
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fuzz"))
 import readers  # noqa: E402
@@ -351,13 +351,19 @@ def cheap(params):
 @given(params=st.fixed_dictionaries({}, optional={n: s for n, (s, _) in PARAMETERS.items()}))
 def test_any_parameters_are_accepted_and_work_or_are_rejected_by_name(params):
     invalid = [n for n in ORDER if n in params and not PARAMETERS[n][1](params[n])]
+    # create() takes the whole set: it also refuses firstSlope > lastSlope
+    misordered = params.get("firstSlope", -math.inf) > params.get("lastSlope", math.inf)
     try:
         d = liff.LiFF.create(**params)
     except ValueError as e:
-        assert invalid, f"rejected valid parameters {params}: {e}"
+        if not invalid:
+            assert misordered, f"rejected valid parameters {params}: {e}"
+            assert "firstSlope" in str(e) and "expected firstSlope <= lastSlope" in str(e), str(e)
+            return
         assert invalid[0] in str(e) and "expected" in str(e), (invalid, str(e))
         return
     assert not invalid, f"accepted invalid {invalid} in {params}"
+    assert not misordered, f"accepted firstSlope > lastSlope in {params}"
     for name, value in params.items():
         assert getattr(d, GETTER[name])() == value
     if cheap(params) and math.isinf(d.getFirstSlope()) + math.isinf(d.getLastSlope()) == 1:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import math
 import warnings
 
-import cv2
 import numpy as np
 import pytest
 
@@ -104,13 +103,28 @@ def test_slice_spacing_is_one_pixel_at_the_outermost_view(T, S, first, last, exp
 
 
 def test_explicit_numslopes_with_an_automatic_range(far_layers):
-    lf, _ = far_layers
+    """numSlopes = n with an automatic range: n evenly spaced slices from the first to
+    the last slope the default would search, plus an unsearched guard beyond each end,
+    so that the outer layers (at -2.5 and 2.5) keep sub-slice slopes, not end ones."""
+    lf, blobs = far_layers
     d = liff.LiFF.create(numSlopes=7)
-    d.detect(lf)
-    used = d.getSlicesUsed()
-    assert len(used) == 7 and d.getSearchedSlopes() == used
-    assert used[0] < -2 and used[-1] > 2
+    keypoints = d.detect(lf)
+    used, searched = d.getSlicesUsed(), d.getSearchedSlopes()
+    assert len(used) == 7 and searched == used[1:-1]
+    assert used[1] <= -2.5 <= used[2] and used[-3] <= 2.5 <= used[-2]
     assert np.allclose(np.diff(used), np.diff(used)[0])
+    slopes = liff.keypoint_slopes(keypoints)
+    assert not np.any(np.isclose(slopes, searched[0], atol=1e-4) | np.isclose(slopes, searched[-1], atol=1e-4))
+    match = matched(keypoints, blobs)
+    # (1.4 apart, coarser than the default 0.5, a faint blob may drop out)
+    assert len(match.slope_errors) >= 0.9 * len(blobs) and np.max(np.abs(match.slope_errors)) < 0.25
+
+
+def test_numslopes_too_few_for_guards_are_all_searched(far_layers):
+    lf, _ = far_layers
+    d = liff.LiFF.create(numSlopes=3)
+    d.detect(lf)
+    assert len(d.getSlicesUsed()) == 3 and d.getSearchedSlopes() == d.getSlicesUsed()
 
 
 def test_half_automatic_range_stays_within_its_finite_bound(far_layers):
@@ -119,6 +133,52 @@ def test_half_automatic_range_stays_within_its_finite_bound(far_layers):
     slopes = liff.keypoint_slopes(d.detect(lf))
     assert len(slopes) and slopes.min() >= 0.0
     assert np.any(np.abs(slopes - 2.5) < 0.1)
+
+
+@pytest.mark.parametrize("bounds", [{"firstSlope": -2.6}, {"lastSlope": 2.6}])
+def test_half_automatic_grid_has_a_slice_at_its_finite_bound(far_layers, bounds):
+    """The finite bound is a slice, not rounded inward to the default grid (where
+    features between the bound and the first slice would be pinned there)."""
+    lf, _ = far_layers
+    d = liff.LiFF.create(**bounds)
+    d.detect(lf)
+    bound = bounds.get("firstSlope", bounds.get("lastSlope"))
+    end = d.getSlicesUsed()[0] if "firstSlope" in bounds else d.getSlicesUsed()[-1]
+    assert end == pytest.approx(bound)
+    assert np.allclose(np.diff(d.getSlicesUsed()) % 0.5, 0, atol=1e-9) or \
+        np.allclose(np.diff(d.getSlicesUsed()) % 0.5, 0.5, atol=1e-9)
+
+
+def test_half_automatic_range_does_not_pin_a_layer_beyond_its_bound(far_layers):
+    """The survey stays within the finite bound: the layer at -2.5, beyond a bound of
+    -2.3, is left out rather than reported at the bound."""
+    lf, _ = far_layers
+    slopes = liff.keypoint_slopes(liff.LiFF.create(firstSlope=-2.3).detect(lf))
+    assert len(slopes) and slopes.min() > -2.0
+
+
+@pytest.mark.parametrize("shape", [(2, 2, 128, 128), (1, 2, 160, 160)])
+def test_two_views_use_a_narrow_range(shape):
+    """Two views along the longer axis: a wide survey finds ghosts of textures at every
+    slope (docs/SLOPES.md, "Two views"); the automatic range is [-2, 2] and the slopes
+    of textured layers within it stay right."""
+    scene = synthetic.textured_layers(shape, (-0.9, 0.13, 0.77), seed=0)
+    d = liff.LiFF.create()
+    keypoints = d.detect(scene.light_field)
+    assert d.getSlicesUsed() == [-2.0, 0.0, 2.0]
+    pts = np.rint([k.pt for k in keypoints]).astype(int)
+    errors = np.abs(liff.keypoint_slopes(keypoints) - scene.slope_map[pts[:, 1], pts[:, 0]])
+    assert len(errors) > 100 and np.mean(errors > 1) < 0.2
+    assert len(d._survey(scene.light_field)) == 0  # no survey, so no warning from ghosts
+
+
+def test_views_too_small_to_survey_search_every_slope_up_to_the_bound():
+    """9x9 views of 63 pixels are not surveyed; a layer at slope 2 (just past
+    R = 63 / 32) is still searched, the bound rounded outward to the grid."""
+    lf, blobs = blob_layers([2.0], n=9, size=63, per_layer=4)
+    d = liff.LiFF.create()
+    match = matched(d.detect(lf), blobs)
+    assert len(match.slope_errors) == len(blobs) and np.max(np.abs(match.slope_errors)) < 0.05
 
 
 @pytest.mark.parametrize("value", [0.0, 0.5, 1.0])

@@ -276,6 +276,8 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
 }  // namespace
 
 cv::Ptr<LiFF> LiFF::create(const Parameters& parameters) {
+  parameters.check();  // each value first, so that its error names it
+  checkSlopeOrder(parameters);
   return cv::makePtr<LiFF_Impl>(parameters);
 }
 

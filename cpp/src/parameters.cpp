@@ -88,7 +88,14 @@ void readParameters(const cv::FileNode& fn, Parameters& parameters) {
   LIFF_PARAMETERS(LIFF_READ_PARAMETER)
 #undef LIFF_READ_PARAMETER
   next.check();
+  checkSlopeOrder(next);
   parameters = next;
+}
+
+void checkSlopeOrder(const Parameters& p) {
+  require(!(p.firstSlope > p.lastSlope),
+          cv::format("firstSlope = %g > lastSlope = %g; expected firstSlope <= lastSlope",
+                     p.firstSlope, p.lastSlope));
 }
 
 }  // namespace liff

@@ -56,20 +56,22 @@ Intervals merged(std::vector<std::pair<double, double>> spans) {
   return out;
 }
 
-// Grid positions k (slope k * step) with a slope in one of `intervals` and in [lo, hi].
-std::set<long> positionsIn(const Intervals& intervals, double step, double lo, double hi) {
+// Grid positions k (slope origin + k * step) with a slope in one of `intervals` and in
+// [lo, hi].
+std::set<long> positionsIn(const Intervals& intervals, double step, double lo, double hi,
+                           double origin = 0) {
   std::set<long> positions;
   for (const auto& [a, b] : intervals) {
-    const long first = long(std::ceil(std::max(a, lo) / step - 1e-9));
-    const long last = long(std::floor(std::min(b, hi) / step + 1e-9));
+    const long first = long(std::ceil((std::max(a, lo) - origin) / step - 1e-9));
+    const long last = long(std::floor((std::min(b, hi) - origin) / step + 1e-9));
     for (long k = first; k <= last; ++k) positions.insert(k);
   }
   return positions;
 }
 
-// The plan of grid positions `searched` (slopes k * step), each with its grid
+// The plan of grid positions `searched` (slopes origin + k * step), each with its grid
 // neighbours as unsearched guards where they are not searched themselves.
-SlopePlan guardedPlan(std::set<long> searched, double step, int T, int S) {
+SlopePlan guardedPlan(std::set<long> searched, double step, int T, int S, double origin = 0) {
   // A one-position gap between two runs would be built as both runs' guard anyway:
   // search it too.
   for (auto it = searched.begin(); it != searched.end(); ++it) {
@@ -82,11 +84,11 @@ SlopePlan guardedPlan(std::set<long> searched, double step, int T, int S) {
     all.insert(k + 1);
   }
   SlopePlan plan;
-  plan.origin = 0;
+  plan.origin = origin;
   plan.step = step;
   for (long k : all) {
     plan.grid.push_back(int(k));
-    plan.slopes.push_back(double(k) * step);
+    plan.slopes.push_back(origin + double(k) * step);
     plan.searched.push_back(searched.count(k) > 0);
   }
   setBlurTarget(plan, T, S, true);
@@ -123,6 +125,34 @@ std::vector<double> surveyLevel(const LightField& small, int factor, const std::
     if (coherence[i] >= minCoherence(small.T * small.S))
       slopes.push_back(keypointSlope(unique[i]) * factor);
   return slopes;
+}
+
+// numSlopes = n slices evenly from slope a to b (the first and last the default plan
+// would search), plus an unsearched guard beyond each automatic end, so that a feature
+// at a or b has a slice on either side and is not pinned there: with both ends
+// automatic, n - 2 searched slices, spacing (b - a) / (n - 3). Where a = b the searched
+// slices share one default spacing `unit` around it. Too few slices for guards and two
+// searched ones (n = 3 with both ends automatic, n <= 2): all n searched, spanning
+// [a, b] (one at its middle for n = 1), as a hand-set range.
+SlopePlan countedPlan(int n, double a, double b, bool guardLow, bool guardHigh, double unit,
+                      int T, int S) {
+  if (n - int(guardLow) - int(guardHigh) < 2) guardLow = guardHigh = false;
+  const int searchedCount = n - int(guardLow) - int(guardHigh);
+  if (b - a < 1e-9) {
+    a -= 0.5 * unit;
+    b += 0.5 * unit;
+  }
+  const double spacing = searchedCount > 1 ? (b - a) / (searchedCount - 1) : 0.0;
+  SlopePlan plan;
+  plan.step = spacing;
+  plan.origin = (searchedCount > 1 ? a : 0.5 * (a + b)) - (guardLow ? spacing : 0.0);
+  for (int k = 0; k < n; ++k) {
+    plan.grid.push_back(k);
+    plan.slopes.push_back(plan.origin + k * spacing);
+    plan.searched.push_back(!((guardLow && k == 0) || (guardHigh && k == n - 1)));
+  }
+  setBlurTarget(plan, T, S, false);
+  return plan;
 }
 
 // Bilinear sample of a V x U view at (x, y), clamped to the view (border replicated).
@@ -171,9 +201,11 @@ double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope,
   for (int t = 0; t < lf.T; ++t)
     for (int s = 0; s < lf.S; ++s) {
       const float x = float(kp.pt.x - slope * (s - sc)), y = float(kp.pt.y - slope * (t - tc));
-      // A view whose patch centre falls outside it does not see the feature; patches that
+      // Every view must see the feature: where the shifted views no longer overlap, the
+      // slice is an average of fewer views, as sharp at a wrong slope as at the right one,
+      // and with two views along an axis most such features are ghosts. Patches that
       // reach past a border sample the replicated border.
-      if (x < 0 || y < 0 || x > lf.U - 1 || y > lf.V - 1) continue;
+      if (x < 0 || y < 0 || x > lf.U - 1 || y > lf.V - 1) return -1;
       const float* view = lf.view(t, s);
       const float* alpha =
           lf.weights.empty() ? nullptr : lf.weights.ptr<float>((t * lf.S + s) * lf.V);
@@ -227,6 +259,7 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
   int finest = kFinestDecimation;
   while (finest > 2 && side / finest < kFinestSurveyView) finest /= 2;
   if (side / finest < kSmallestSurveyView) return survey;  // views too small to survey
+  if (std::max(lf.T, lf.S) < 3) return survey;  // two views: ghosts everywhere (automaticPlan)
   int factor = finest;
   while (factor < kCoarsestDecimation && side / (factor * 2) >= kCoarsestSurveyView) factor *= 2;
   // The levels' light fields, finest first, each from the last (one pass over the
@@ -271,10 +304,22 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
     plan.searched = {true};
     return plan;  // (no interpolation blur: one view, never shifted)
   }
+  if (std::max(lf.T, lf.S) == 2) {
+    // Two views along the longer axis: a slice at a wrong slope averages two views, which
+    // a texture matches about as often as at the right slope, so neither the survey nor
+    // LiFF can tell slopes far apart. A narrow range, one spacing either side of 0
+    // (within the bounds given), as a hand-set one.
+    Parameters narrow = p;
+    narrow.firstSlope = std::isfinite(lo) ? lo : std::min(-unit, hi - 2 * unit);
+    narrow.lastSlope = std::isfinite(hi) ? hi : std::max(unit, narrow.firstSlope + 2 * unit);
+    SlopePlan plan = uniformPlan(narrow, lf.T, lf.S);
+    setBlurTarget(plan, lf.T, lf.S, false);
+    return plan;
+  }
   const SlopeSurvey survey = surveySlopes(lf, p, lo, hi, batch);
   Intervals occupied;
   if (survey.levels == 0) {  // views too small to survey: every slope that could be
-    const double reach = largestSlope(lf.T, lf.S, lf.V, lf.U);
+    const double reach = largestSlope(lf.T, lf.S, lf.V, lf.U) + 0.5 * unit;
     occupied = {{-reach, reach}};
   } else if (survey.slopes.empty()) {
     occupied = {{-kPaperRange, kPaperRange}};
@@ -294,11 +339,13 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
     }
     occupied = merged(spans);
   }
-  const std::set<long> searched = positionsIn(occupied, unit, lo, hi);
+  // The grid starts at a finite bound the user gave, so that a slice lies on it.
+  const double origin = std::isfinite(lo) ? lo : std::isfinite(hi) ? hi : 0.0;
+  const std::set<long> searched = positionsIn(occupied, unit, lo, hi, origin);
   if (p.numSlopes == 0 || searched.empty()) {
     // No guard beyond a finite bound: a slice at the bound skips that side, as the
     // ends of a hand-set range do, so no slope is reported beyond it.
-    SlopePlan plan = guardedPlan(searched, unit, lf.T, lf.S), inside;
+    SlopePlan plan = guardedPlan(searched, unit, lf.T, lf.S, origin), inside;
     inside = plan;
     inside.slopes.clear();
     inside.grid.clear();
@@ -311,14 +358,9 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
       }
     return inside;
   }
-  // numSlopes slices evenly over the slopes the searched slices stand for: each covers
-  // half a spacing on either side.
-  Parameters uniform = p;
-  uniform.firstSlope = std::max(lo, (double(*searched.begin()) - 0.5) * unit);
-  uniform.lastSlope = std::min(hi, (double(*searched.rbegin()) + 0.5) * unit);
-  SlopePlan plan = uniformPlan(uniform, lf.T, lf.S);
-  setBlurTarget(plan, lf.T, lf.S, false);
-  return plan;
+  return countedPlan(p.numSlopes, origin + double(*searched.begin()) * unit,
+                     origin + double(*searched.rbegin()) * unit, !std::isfinite(lo),
+                     !std::isfinite(hi), unit, lf.T, lf.S);
 }
 
 SlopePlan describingPlan(int T, int S, const std::vector<double>& slopes) {

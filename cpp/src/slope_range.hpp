@@ -17,18 +17,20 @@ namespace detail {
 /// 2 / (max(T, S) - 1) pixels per view step (0 for a single view).
 double sliceSpacing(int T, int S);
 
-/// Largest |slope| the automatic range considers: the outermost view moves a quarter
-/// of the smaller view side, min(V, U) / (2 (max(T, S) - 1)); beyond it too little of
-/// the views overlaps to focus anything.
+/// Largest |slope| the automatic range considers, min(V, U) / (4 (max(T, S) - 1)): the
+/// two outermost views then differ by a quarter of the smaller view side; beyond it too
+/// little of the views overlaps to focus anything.
 double largestSlope(int T, int S, int V, int U);
 
 /// Share of the views' energy that adds up coherently at a keypoint: with b_v the
 /// DoG response (at the keypoint's scale) of view v sampled where the keypoint's
 /// slope puts it, kappa = (sum_v b_v)^2 / (n sum_v b_v^2), in [0, 1]. A real feature
 /// seen alike by the views gives about 1; a ghost (one view's copy of a feature that
-/// lies at another slope) or noise about 1 / n. Views the keypoint falls outside of, or
-/// (with alpha) whose patch is mostly invalid, are left out (patches reaching past a
-/// border sample the replicated border); -1 when fewer than half remain.
+/// lies at another slope) or noise about 1 / n. -1 when a view does not see the keypoint
+/// (its shifted position falls outside it: there the slice averages fewer views and is
+/// as sharp at a wrong slope); views whose patch is mostly invalid (alpha) are left out,
+/// and -1 when fewer than half remain. Patches reaching past a border sample the
+/// replicated border.
 /// `keypoint` is in `lf`'s pixels and its slope in `lf`'s pixels per view step.
 double viewCoherence(const LightField& lf, const cv::KeyPoint& keypoint, double slope, int layers);
 
@@ -41,20 +43,27 @@ struct SlopeSurvey {
 };
 
 /// Runs the pre-pass: LiFF's own detection (parameters `p`, contrast threshold halved)
-/// on the light field decimated 16, 8 and 4 times (those that leave views of at least
-/// 16 pixels), the coarsest over all slopes within [lo, hi] and +-largestSlope, each
+/// on the light field decimated 4 times (2 where that leaves views under 64 pixels;
+/// views under 32 pixels are not surveyed), then 8 and 16 times while views keep 40
+/// pixels; the coarsest level over all slopes within [lo, hi] and +-largestSlope, each
 /// finer one only around the slopes of the coherent features of the last; features
-/// whose viewCoherence is below one half are dropped as ghosts or noise.
+/// below minCoherence are dropped as ghosts or noise.
 SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, double hi,
                          int batch);
 
-/// The automatic plan: the slices on the grid k * sliceSpacing (k whole) within half a
-/// spacing, plus the survey's uncertainty, of a surveyed slope, each searched, and their
-/// grid neighbours as unsearched guards; gaps between surveyed slopes are skipped.
-/// With numSlopes > 0, that many slices evenly over the surveyed range instead, all
-/// searched. Slopes outside finite bounds [lo, hi] are dropped. When the survey finds
-/// nothing (a blank light field), the plan spans the paper's [-1, 1] within the bounds;
-/// views too small to survey (under 32 pixels) get every slope up to largestSlope.
+/// The automatic plan: the slices on the grid o + k * sliceSpacing (k whole; o the finite
+/// bound where one is given, else 0) within half a spacing, plus the survey's
+/// uncertainty, of a surveyed slope, each searched, and their grid neighbours as
+/// unsearched guards; gaps between surveyed slopes are skipped. With numSlopes > 0,
+/// that many slices evenly from the first to the last slope the default would search,
+/// plus one unsearched guard beyond each automatic end (so no feature is pinned there).
+/// No slice lies beyond a finite bound [lo, hi]; a slice at it is searched, as the ends
+/// of a hand-set range are. When the survey finds nothing (a blank light field), the
+/// plan spans the paper's [-1, 1] within the bounds; views too small to survey (under
+/// 32 pixels) get every slope up to largestSlope (rounded outward to the grid). With
+/// two views along the longer axis (stereo pairs, 2 x 2), where slopes far from the
+/// truth focus textures as well as the truth, no survey: [-2, 2] (one spacing either
+/// side of 0, within the bounds given) as a hand-set range.
 SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch);
 
 /// compute() with an automatic range and several views: the slices of the grid

@@ -162,9 +162,13 @@ TEST(BadInput, DescriptorTypeOtherThanFloatOrByteIsRefused) {
       throwsWith([] { liff::LiFF::create()->setDescriptorType(CV_16U); }, "descriptorType"));
 }
 
-TEST(BadInput, FirstSlopeAboveLastSlopeIsRefusedAtDetectTime) {
-  // create() takes the slopes one at a time; their order is checked by detect().
-  const cv::Ptr<liff::LiFF> d = liff::LiFF::create(0, 3, 0.04, 10, 1.6, 1, -1);
+TEST(BadInput, FirstSlopeAboveLastSlopeIsRefusedByCreateAndAtDetectTime) {
+  // create() takes the whole set and checks the order; setters take one slope at a
+  // time, so detect() checks it again.
+  EXPECT_TRUE(throwsWith([] { liff::LiFF::create(0, 3, 0.04, 10, 1.6, 1, -1); }, "firstSlope"));
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create();
+  d->setFirstSlope(1);
+  d->setLastSlope(-1);
   const cv::Mat lf = blobLightField(3, 3, 32, 32, 16, 16, 0);
   std::vector<cv::KeyPoint> kps;
   EXPECT_TRUE(throwsWith([&] { d->detect(lf, kps); }, "firstSlope"));

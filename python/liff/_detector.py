@@ -137,6 +137,7 @@ class LiFF(_core.LiFF):
     def __init__(self, *args, **kwargs) -> None:
         """Creates a detector; arguments as :meth:`create`."""
         super().__init__(**_bind(args, kwargs))
+        self._initialised = True  # (a raising __init__ leaves no C++ object: see __repr__)
 
     @classmethod
     def create(cls, *args, **kwargs) -> "LiFF":
@@ -152,10 +153,20 @@ class LiFF(_core.LiFF):
         (raises ValueError with an automatic one, whose slopes depend on the content).
         ``slopesFor(lf)``: those detection would build for the light field ``lf``; with
         an automatic range this runs its survey (docs/SLOPES.md), a few percent of a
-        detection. After a call, :meth:`getSlicesUsed` and :meth:`getSearchedSlopes`
-        give what it used.
+        detection. Neither changes :meth:`getSlicesUsed` and :meth:`getSearchedSlopes`,
+        which describe the last detect, detectAndCompute or compute call.
+
+        Raises
+        ------
+        ValueError
+            ``slopesFor(T, S)`` with an automatic range, or a bad light field.
+        TypeError
+            One number (view counts come in pairs, ``slopesFor(T, S)``).
         """
         if len(args) == 1:
+            if isinstance(args[0], (int, float, np.integer, np.floating)):
+                raise TypeError(f"slopesFor({args[0]!r}): expected slopesFor(T, S), two view "
+                                "counts, or slopesFor(lf), a light field")
             return self._slopes_for_light_field(_as_light_field(args[0]))
         return super().slopesFor(*args)
 
@@ -221,17 +232,18 @@ class LiFF(_core.LiFF):
 
     def _check_range_ends(self, lf: np.ndarray, rows: np.ndarray) -> None:
         """Warns (SlopeRangeWarning) when more than RANGE_END_SHARE of the features sit
-        at an end of a hand-set slope range and the automatic survey (docs/SLOPES.md)
-        finds structure beyond that end: their slopes are pinned there. Features at an
-        end the scene itself ends at are not warned about."""
+        at a hand-set end of the slope range (firstSlope or lastSlope finite) and the
+        automatic survey (docs/SLOPES.md) finds structure beyond that end: their slopes
+        are pinned there. Features at an end the scene itself ends at are not warned
+        about."""
         first, last = self.getFirstSlope(), self.getLastSlope()
         searched = self.getSearchedSlopes()
-        if not (math.isfinite(first) and math.isfinite(last)) or len(searched) < 2 or not len(rows):
+        if not (math.isfinite(first) or math.isfinite(last)) or len(searched) < 2 or not len(rows):
             return
         slopes = rows[:, 6] / SLOPE_SCALE
         tol = 1.0 / SLOPE_SCALE
-        low = int(np.sum(np.abs(slopes - searched[0]) <= tol))
-        high = int(np.sum(np.abs(slopes - searched[-1]) <= tol))
+        low = int(np.sum(np.abs(slopes - searched[0]) <= tol)) if math.isfinite(first) else 0
+        high = int(np.sum(np.abs(slopes - searched[-1]) <= tol)) if math.isfinite(last) else 0
         if low + high <= RANGE_END_SHARE * len(rows):
             return
         # Structure beyond an end: a share of the survey's features (not one outlier)
@@ -243,13 +255,15 @@ class LiFF(_core.LiFF):
                 (high and np.mean(surveyed > last + half) > RANGE_END_SHARE)):
             return
         found = (float(np.percentile(surveyed, 1)), float(np.percentile(surveyed, 99)))
-        lo, hi = min(first, found[0]), max(last, found[1])
+        suggested = ", ".join(
+            [f"firstSlope={min(first, found[0]):.2f}"] * math.isfinite(first) +
+            [f"lastSlope={max(last, found[1]):.2f}"] * math.isfinite(last))
         warnings.warn(f"{low + high} of {len(rows)} features ({100 * (low + high) / len(rows):.0f}%) "
                       f"sit at an end of the slope range [{first:g}, {last:g}] and the light "
                       f"field has structure beyond it (slopes {found[0]:.2f} to {found[1]:.2f}), "
-                      f"whose features are reported at the end; try firstSlope={lo:.2f}, "
-                      f"lastSlope={hi:.2f}, or the automatic range (firstSlope=-inf, "
-                      f"lastSlope=+inf, the default)", SlopeRangeWarning, stacklevel=3)
+                      f"whose features are reported at the end; try {suggested}, or the "
+                      f"automatic range (firstSlope=-inf, lastSlope=+inf, the default)",
+                      SlopeRangeWarning, stacklevel=3)
 
     # --- persistence, as cv2.Feature2D -----------------------------------------
     def save(self, filename: Union[str, os.PathLike]) -> None:
@@ -298,6 +312,8 @@ class LiFF(_core.LiFF):
         self._from_string(copy.releaseAndGetString())
 
     def __repr__(self) -> str:
+        if not self.__dict__.get("_initialised"):
+            return f"<{type(self).__name__}, not initialised>"
         values = ", ".join(f"{p.name}={getattr(self, 'get' + p.accessor)()!r}" for p in PARAMETERS)
         return f"LiFF({values})"
 

@@ -27,9 +27,12 @@ import threading
 import time
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields
-from typing import List, NamedTuple, Optional, Sequence, Union
+from typing import TYPE_CHECKING, List, NamedTuple, Optional, Sequence
 
 from .outputs import atomic_output
+
+if TYPE_CHECKING:  # (an optional dependency: pip install "liff[dask]")
+    import distributed
 
 #: What each task may use of its worker's memory limit (Dask's nanny pauses a worker at
 #: 80% and kills it at 95%), less what the process already holds.
@@ -57,8 +60,9 @@ class Outcome:
     ``status`` is "done", "failed" or "kept" (an output made with the same settings
     was there); ``first_slope``/``last_slope`` the slopes of the first and last slice
     searched, ``searched``/``built`` the focal slices searched and built, and
-    ``slopes_from`` where the range came from ("automatic", "given" or a reader's
-    "parameters.cfg"); ``seconds`` the task's time on its worker (reading, detecting,
+    ``slopes_from`` where the range came from ("automatic", "given", a reader's
+    "parameters.cfg", or, where the ends differ, two joined by " + ": "given +
+    automatic"); ``seconds`` the task's time on its worker (reading, detecting,
     writing) and ``cpu_seconds`` the processor time it took (all of LiFF's threads);
     ``notes`` the warnings about the input, one per line."""
 
@@ -237,6 +241,16 @@ def write_manifest(path: str, outcomes: Sequence[Outcome]) -> None:
         writer.writerows(asdict(outcome) for outcome in outcomes)
 
 
+def is_manifest(path: str) -> bool:
+    """Whether ``path`` is a manifest :func:`write_manifest` wrote (its CSV header)."""
+    header = ",".join(field.name for field in fields(Outcome))
+    try:
+        with open(path, newline="") as f:
+            return f.readline().rstrip("\r\n") == header
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
 def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
            reader_options: Optional[dict] = None, preprocess: bool = False,
            overwrite: bool = False, manifest: Optional[str] = None, **parameters) -> List[Outcome]:
@@ -256,9 +270,13 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
     overwrite : bool
         Redo outputs made with the same settings too.
     manifest : str, optional
-        Where to write the run's manifest (CSV).
+        Where to write the run's manifest (CSV); refused (ValueError, before anything
+        runs) if it is an input, an output, or an existing file other than a liff
+        manifest (unless ``overwrite``).
     **parameters
-        ``liff.LiFF.create`` keywords.
+        ``liff.LiFF.create`` keywords. A slope bound not given comes from the range a
+        reader knows (an HCI scene's parameters.cfg), else is automatic, as in
+        ``liff detect``.
 
     Returns
     -------
@@ -269,15 +287,19 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
 
     from . import PARAMETERS
     from .cli import common
-    from .cli.detect import plan
+    from .cli.detect import check_manifest, plan
 
     args = argparse.Namespace(paths=list(paths), out=os.path.join(out, ""), plot=None,
                               overwrite=overwrite, preprocess=preprocess, from_list=None)
-    wanted = {p.name: parameters.pop(p.name, p.default) for p in PARAMETERS}
+    # slope bounds not given: a reader's range if it knows one, else automatic
+    wanted = {p.name: parameters.pop(p.name, None if p.name in common.SLOPE_BOUNDS else p.default)
+              for p in PARAMETERS}
     if parameters:
         raise TypeError(f"unknown parameter(s) {sorted(parameters)}; expected liff.LiFF.create "
                         "keywords")
     tasks, kept, _ = plan(args, dict(reader_options or {}), wanted)
+    if manifest:
+        check_manifest(manifest, args, tasks, kept)
     if client is not None:
         outcomes = run(tasks, client)
     else:

@@ -35,6 +35,8 @@ HCI_CAMERA_KEYS = (("intrinsics", "focal_length_mm"), ("intrinsics", "sensor_siz
 
 
 def _positive(name: str, value, allow_inf: bool = False) -> float:
+    if isinstance(value, (str, bytes, bool, np.bool_)):  # float() would take "1000" and True
+        raise ValueError(f"{name} = {value!r}; expected a number")
     try:
         value = float(value)
     except (TypeError, ValueError):
@@ -168,9 +170,14 @@ class LightFieldCamera:
             (X, Y, Z) in metres in the centre view's OpenCV camera frame (x right,
             y down, z forward): ``X = (x - cx) Z / f``, ``Y = (y - cy) Z / f``, Z from
             :meth:`depth`; rows of NaN where the slope is at or beyond infinity.
+
+        Raises
+        ------
+        ValueError
+            If the keypoints carry no slope (every ``class_id`` -1, as ``cv2.SIFT``'s).
         """
         points, _ = _keypoint_arrays(keypoints)
-        return self.back_project(points, self.depth(keypoint_slopes(keypoints)))
+        return self.back_project(points, self.depth(keypoint_slopes(keypoints, require=True)))
 
     def back_project(self, pixels, depths) -> np.ndarray:
         """3-D points (N, 3) at ``depths`` (N,) metres along the centre view's rays
@@ -187,10 +194,11 @@ class LightFieldCamera:
         ``size * Z / focal_length``: the keypoint's diameter (``cv2.KeyPoint.size``, 2
         sigma, in pixels) at its depth. NaN where the slope is at or beyond infinity.
         Independent of the distance from which a feature is seen, which makes matching
-        scale-sensitive (:func:`liff.matching.ratio_matches`).
+        scale-sensitive (:func:`liff.matching.ratio_matches`). ValueError if the
+        keypoints carry no slope (every ``class_id`` -1, as ``cv2.SIFT``'s).
         """
         _, sizes = _keypoint_arrays(keypoints)
-        return sizes * self.depth(keypoint_slopes(keypoints)) / self.focal_length
+        return sizes * self.depth(keypoint_slopes(keypoints, require=True)) / self.focal_length
 
     def matrix(self) -> np.ndarray:
         """The centre view's 3x3 calibration matrix K (OpenCV pixels), float64."""

@@ -57,7 +57,7 @@ def rows_to_keypoints(rows: np.ndarray) -> KeyPoints:
     )
 
 
-def keypoint_slopes(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
+def keypoint_slopes(keypoints: Sequence[cv2.KeyPoint], require: bool = False) -> np.ndarray:
     """Slopes of LiFF keypoints.
 
     Parameters
@@ -65,11 +65,25 @@ def keypoint_slopes(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
     keypoints : sequence of cv2.KeyPoint
         Keypoints from :class:`liff.LiFF`; the slope is stored in ``class_id`` as
         ``round(slope * SLOPE_SCALE)`` with ``SLOPE_SCALE = 65536``.
+    require : bool
+        Refuse keypoints that carry no slope: every ``class_id`` at -1, OpenCV's
+        default (as ``cv2.SIFT``'s keypoints have), which would read as slope
+        -1.5e-5. For uses where the slope is the measurement (depth, 3-D points).
 
     Returns
     -------
     slopes : ndarray of float64, shape (N,)
         Pixels per view step: a point at (x, y) in the centre view appears at
         ``(x - slope*(s - s_c), y - slope*(t - t_c))`` in view (t, s).
+
+    Raises
+    ------
+    ValueError
+        With ``require``, if every keypoint's ``class_id`` is -1.
     """
-    return np.fromiter((k.class_id for k in keypoints), dtype=np.float64) / SLOPE_SCALE
+    ids = np.fromiter((k.class_id for k in keypoints), dtype=np.float64)
+    if require and len(ids) and np.all(ids == -1):
+        raise ValueError(f"{len(ids)} keypoints all with class_id -1 (OpenCV's default): they "
+                         "carry no slope; expected keypoints from liff.LiFF, which stores "
+                         "each one's slope in class_id")
+    return ids / SLOPE_SCALE

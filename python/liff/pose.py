@@ -154,7 +154,7 @@ def observations(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
         if not isinstance(k, cv2.KeyPoint):
             raise ValueError(f"keypoints hold a {type(k).__name__}; expected cv2.KeyPoint")
     xy = np.array([k.pt for k in keypoints], np.float64).reshape(-1, 2)
-    return np.column_stack([xy, keypoint_slopes(keypoints)])
+    return np.column_stack([xy, keypoint_slopes(keypoints, require=True)])
 
 
 def _back_project(camera: LightFieldCamera, obs: np.ndarray) -> np.ndarray:
@@ -602,7 +602,8 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
     Raises
     ------
     ValueError
-        For malformed input (keypoint and descriptor counts, cameras).
+        For malformed input (keypoint and descriptor counts, cameras, keypoints that
+        carry no slope: every ``class_id`` -1, as ``cv2.SIFT``'s).
     PoseEstimationError (a ValueError)
         Fewer than 3 matches with a depth, no RANSAC solution, fewer than 3 inliers after
         refinement, or degenerate geometry (collinear points, all at infinity): never a

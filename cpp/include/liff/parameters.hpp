@@ -56,6 +56,11 @@ struct Parameters {
   void check() const;
 };
 
+/// Throws cv::Error::StsOutOfRange if firstSlope > lastSlope: for the whole sets that
+/// create() and read() take (setters change one bound at a time, so detection checks
+/// the order again when it makes the slopes).
+void checkSlopeOrder(const Parameters& parameters);
+
 /// Writes `parameters` as one FileStorage entry per parameter, at the current level.
 void writeParameters(cv::FileStorage& fs, const Parameters& parameters);
 /// Reads the entries of `node` (a map) over `parameters`; absent entries keep their

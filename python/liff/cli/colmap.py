@@ -50,7 +50,7 @@ def add_parser(sub) -> None:
             add_camera_options(p)  # with a camera, the model is scaled to metres
         p.add_argument("--focal", type=float, default=None,
                        help="focal length in pixels (default: COLMAP's guess, 1.2 x max side)")
-        p.add_argument("--workers", type=int, default=1,
+        p.add_argument("--workers", type=common.positive_int, default=1,
                        help="processes for detection (default 1)")
         p.add_argument("--overwrite", action="store_true", help="replace an existing database")
         common.add_reader_options(p)
@@ -87,7 +87,8 @@ def write(args: argparse.Namespace, database: str, image_dir: str, focal=None,
     from .. import colmap
 
     names = [common.output_name(path, ".png") for path in args.paths]
-    refuse_inputs([database] + [os.path.join(image_dir, n) for n in names], args.paths,
+    refuse_inputs([database] + [os.path.join(image_dir, n) for n in names],
+                  args.paths + getattr(args, "given_paths", []),
                   "--database / --image-dir / --workspace")
     if os.path.exists(database):
         if not args.overwrite:
@@ -134,6 +135,7 @@ def scale_to_metres(result, images, camera, sparse: str) -> None:
 
 
 def run_colmap(args: argparse.Namespace) -> int:
+    args.given_paths = list(args.paths)  # folders given stay inputs: nothing written in them
     args.paths = common.expand_inputs(args.paths, common.reader_options(args))
     return 1 if write(args, args.database, args.image_dir) else 0
 
@@ -141,6 +143,7 @@ def run_colmap(args: argparse.Namespace) -> int:
 def run_sfm(args: argparse.Namespace) -> int:
     from .. import colmap  # first: without pycolmap it says how to install it
 
+    args.given_paths = list(args.paths)  # folders given stay inputs: nothing written in them
     args.paths = common.expand_inputs(args.paths, common.reader_options(args))
     if len(args.paths) < 2:
         raise ValueError(f"{len(args.paths)} input; expected light fields of at least 2 camera "
@@ -148,6 +151,7 @@ def run_sfm(args: argparse.Namespace) -> int:
     database = os.path.join(args.workspace, "database.db")
     image_dir = os.path.join(args.workspace, "images")
     sparse = os.path.join(args.workspace, "sparse")
+    refuse_inputs([database, image_dir, sparse], args.paths + args.given_paths, "--workspace")
     camera = camera_from_args(args)
     if args.overwrite:
         shutil.rmtree(sparse, ignore_errors=True)

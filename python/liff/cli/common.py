@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import re
 import sys
 import time
 from contextlib import contextmanager
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from typing import Callable, Dict, Iterable, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -79,9 +80,64 @@ def add_detector_options(parser: argparse.ArgumentParser) -> None:
         if p.type is bool:
             group.add_argument(option_name(p.name), dest=p.name, default=p.default,
                                action=argparse.BooleanOptionalAction, help=p.help)
+        elif p.name in SLOPE_BOUNDS:  # None: not given (liff detect may use a reader's range)
+            group.add_argument(option_name(p.name), dest=p.name, type=slope_bound, default=None,
+                               metavar="FLOAT", help=(text + "; infinite values as "
+                               f"{option_name(p.name)}=-inf").replace("%", "%%"))
         else:
             group.add_argument(option_name(p.name), dest=p.name, type=p.type, default=p.default,
                                metavar=p.type.__name__.upper(), help=text.replace("%", "%%"))
+
+
+#: The slope range's create() keywords: on the command line, not giving one differs
+#: from giving its default (liff detect then takes a reader's range, docs/SLOPES.md).
+SLOPE_BOUNDS = ("firstSlope", "lastSlope")
+
+
+def positive_int(text: str) -> int:
+    """argparse type: a whole number >= 1 (view counts, sizes, workers)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}; expected a whole number >= 1")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0 (thresholds in pixels, ratios)."""
+    return _finite(text, above=0.0)
+
+
+def nonnegative_float(text: str) -> float:
+    """argparse type: a finite number >= 0 (noise variances)."""
+    return _finite(text, at_least=0.0)
+
+
+def _finite(text: str, above: float = -math.inf, at_least: float = -math.inf) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"{text!r}; expected a finite number")
+    if not (value > above and value >= at_least):
+        bound = f"> {above:g}" if value <= above else f">= {at_least:g}"
+        raise argparse.ArgumentTypeError(f"{text!r}; expected a number {bound}")
+    return value
+
+
+def slope_bound(text: str) -> float:
+    """argparse type of --first-slope / --last-slope: a number, or -inf / inf."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if math.isnan(value):
+        raise argparse.ArgumentTypeError(f"{text!r}; expected a number, or -inf / inf for the "
+                                         "automatic range")
+    return value
 
 
 class _Probe(list):
@@ -126,9 +182,41 @@ def name_flags(message: str) -> str:
     return message
 
 
-def detector_parameters(args: argparse.Namespace) -> dict:
-    """Every create() keyword with its value from the parsed options."""
-    return {p.name: getattr(args, p.name) for p in PARAMETERS}
+def detector_parameters(args: argparse.Namespace, given_only: bool = False) -> dict:
+    """Every create() keyword with its value from the parsed options; a slope bound not
+    given is its default, or None with ``given_only`` (for :func:`slope_range`)."""
+    values = {p.name: getattr(args, p.name) for p in PARAMETERS}
+    if not given_only:
+        values.update({p.name: p.default for p in PARAMETERS
+                       if p.name in SLOPE_BOUNDS and values[p.name] is None})
+    return values
+
+
+def slope_range(parameters: dict, metadata: dict) -> Tuple[dict, str]:
+    """The create() keywords to use, and where the slope range comes from, for
+    ``parameters`` whose slope bounds are None where the user gave none.
+
+    Each bound the user gave is kept (-inf / inf: automatic at that end); each one not
+    given comes from the range a reader knows (an HCI scene's parameters.cfg disp_min
+    and disp_max) if it has one, else is automatic. The source says which: "given",
+    "parameters.cfg", "automatic", or two of them joined by " + " (given first)."""
+    defaults = {p.name: p.default for p in PARAMETERS if p.name in SLOPE_BOUNDS}
+    lo, hi = metadata.get("disp_min"), metadata.get("disp_max")
+    hint = ({"firstSlope": float(lo), "lastSlope": float(hi)}
+            if lo is not None and hi is not None and lo < hi else {})
+    resolved, sources = dict(parameters), []
+    for name in SLOPE_BOUNDS:
+        if parameters.get(name) is not None:
+            sources.append("given")
+        elif name in hint:
+            resolved[name] = hint[name]
+            sources.append("parameters.cfg")
+        else:
+            resolved[name] = defaults[name]
+            sources.append("automatic")
+    if sources[0] == sources[1]:
+        return resolved, sources[0]
+    return resolved, " + ".join(sorted(set(sources), key=["given", "parameters.cfg", "automatic"].index))
 
 
 #: setMemoryLimitMB of the detectors made here (0: LiFF's default, the memory available

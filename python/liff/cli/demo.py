@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from . import common
+
 
 def add_parser(sub) -> None:
     p = sub.add_parser(
@@ -14,7 +16,7 @@ def add_parser(sub) -> None:
                     "OUT/features.png: the features coloured by slope, with the blobs marked "
                     "found or missed.")
     p.add_argument("--out", default="liff-demo", help="output folder (default: liff-demo)")
-    p.add_argument("--noise", type=float, default=1e-3, help="noise variance (default 1e-3)")
+    p.add_argument("--noise", type=common.nonnegative_float, default=1e-3, help="noise variance (default 1e-3)")
     p.set_defaults(run=run)
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import time
@@ -40,7 +39,7 @@ def add_parser(sub) -> None:
     p.add_argument("--plot", default=None,
                    help="also draw the features over the centre view: a .png (one input) or "
                         "a folder")
-    p.add_argument("--workers", type=int, default=1,
+    p.add_argument("--workers", type=common.positive_int, default=1,
                    help="local processes for many inputs (default 1)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="run each light field as a task on the Dask cluster of this scheduler "
@@ -95,25 +94,12 @@ class Detected(NamedTuple):
     notes: Tuple[str, ...] = ()
 
 
-def range_hint(parameters: dict, metadata: dict) -> Tuple[dict, str]:
-    """The detector parameters to use, and where their slope range comes from: a range
-    the user gave ("given"); else the one a reader knows (an HCI scene's parameters.cfg
-    disp_min and disp_max: "parameters.cfg"); else the automatic range ("automatic")."""
-    first, last = parameters["firstSlope"], parameters["lastSlope"]
-    if math.isfinite(first) or math.isfinite(last):
-        return parameters, "given"
-    lo, hi = metadata.get("disp_min"), metadata.get("disp_max")
-    if lo is not None and hi is not None and lo < hi:
-        return dict(parameters, firstSlope=float(lo), lastSlope=float(hi)), "parameters.cfg"
-    return parameters, "automatic"
-
-
 def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
                parameters: dict, mask_spec: Optional[str] = None) -> Detected:
     """Reads, detects and writes one light field; returns what it found."""
     light_field, metadata = common.read_input(path, options, preprocess)
-    parameters, slopes_from = range_hint(parameters, metadata)
-    detector = common.make_detector(parameters)
+    resolved, slopes_from = common.slope_range(parameters, metadata)
+    detector = common.make_detector(resolved)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", LiffWarning)
         keypoints, descriptors = detector.detectAndCompute(
@@ -122,7 +108,8 @@ def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
     searched, built = detector.getSearchedSlopes(), detector.getSlicesUsed()
     slope_range = (searched[0], searched[-1]) if searched else (float("nan"), float("nan"))
     meta = dict(settings(path, options, preprocess, parameters, mask_spec),
-                shape=list(light_field.shape), slopes_searched=searched, slopes_from=slopes_from)
+                shape=list(light_field.shape), slopes_searched=searched, slopes_from=slopes_from,
+                plot=os.path.abspath(plot) if plot else None)
     view = centre_view(light_field)
     with atomic_output(out) as partial:
         save_features(partial, Features(tuple(keypoints), descriptors, view, meta))
@@ -152,13 +139,28 @@ def changes(out: str, plot: Optional[str], wanted: dict) -> Optional[List[str]]:
     old.update({f"parameters.{k}": v for k, v in (made.get("parameters") or {}).items()})
     new = common.json_like(wanted)
     new.update({f"parameters.{k}": v for k, v in new["parameters"].items()})
-    differ = [f"{key.replace('parameters.', '').replace('_', ' ')} {old.get(key)} -> {value}"
+    def shown(value):
+        return "not given" if value is None else value
+
+    differ = [f"{key.replace('parameters.', '').replace('_', ' ')} {shown(old.get(key))} -> "
+              f"{shown(value)}"
               for key, value in new.items() if key != "parameters" and old.get(key) != value]
     if not differ and common.modified_after(wanted["source"], out):
         differ = ["the input changed after the output was made"]
     if not differ and plot and not os.path.exists(plot):
         return []
     return differ or None
+
+
+def refuse_foreign_plot(plot: str, out: str) -> None:
+    """Raises ValueError if ``plot`` exists and is not the picture ``out``'s run drew
+    (as recorded in its feature file): it is not ours to replace."""
+    if not os.path.exists(plot):
+        return
+    made = read_meta(out) if os.path.exists(out) else None
+    if made is None or made.get("plot") != os.path.abspath(plot):
+        raise ValueError(f"{plot}: exists and is not the plot of {out}; expected a new --plot "
+                         "path (or --overwrite to replace it); nothing was written")
 
 
 def plan(args: argparse.Namespace, options: dict, parameters: dict) -> tuple:
@@ -192,6 +194,8 @@ def plan(args: argparse.Namespace, options: dict, parameters: dict) -> tuple:
         refuse_inputs([out], args.paths, "--out")
         if plot:
             refuse_inputs([plot], args.paths, "--plot")
+            if not args.overwrite:
+                refuse_foreign_plot(plot, out)
         mask_spec = getattr(args, "mask", None)  # (liff.batch.detect has no --mask)
         task = batch.Task(path, out, plot, options, args.preprocess, parameters, mask_spec)
         stale = [] if args.overwrite else changes(out, plot, settings(
@@ -223,8 +227,8 @@ def run_tasks(tasks: List[batch.Task], args: argparse.Namespace) -> List[batch.O
                 for t, o in zip(tasks, outcomes)]
     for outcome in outcomes:
         if outcome.error and outcome.error != "reported above":
-            print(f"liff detect: {outcome.input}: {common.name_flags(outcome.error)}",
-                  file=sys.stderr)
+            error = outcome.error.removeprefix("ValueError: ")  # (the manifest keeps the type)
+            print(f"liff detect: {outcome.input}: {common.name_flags(error)}", file=sys.stderr)
     return outcomes
 
 
@@ -232,9 +236,27 @@ def manifest_path(args: argparse.Namespace) -> Optional[str]:
     """``--manifest``, else ``OUT/manifest-<UTC time>.csv`` for a batch (several inputs,
     or --scheduler) into a folder ``--out``."""
     batch_run = len(args.paths) > 1 or args.scheduler
-    if args.manifest or not (batch_run and args.out and os.path.isdir(args.out)):
+    # (called before the run, when a folder --out for several inputs may not exist yet)
+    folder = args.out and (os.path.isdir(args.out) or args.out.endswith(os.sep) or len(args.paths) > 1)
+    if args.manifest or not (batch_run and folder):
         return args.manifest
     return os.path.join(args.out, time.strftime("manifest-%Y%m%d-%H%M%S.csv", time.gmtime()))
+
+
+def check_manifest(manifest: str, args: argparse.Namespace, tasks: List[batch.Task],
+                   kept: List[batch.Outcome]) -> None:
+    """Raises ValueError, before anything runs, if the manifest would write over an
+    input, over another output of the run, or over an existing file that is not a liff
+    manifest (unless ``--overwrite``)."""
+    refuse_inputs([manifest], args.paths, "--manifest")
+    outputs = [t.output for t in tasks] + [t.plot for t in tasks if t.plot] + [k.output for k in kept]
+    if any(os.path.exists(o) and os.path.exists(manifest) and os.path.samefile(o, manifest) or
+           os.path.abspath(o) == os.path.abspath(manifest) for o in outputs):
+        raise ValueError(f"{manifest}: is also an output of this run; expected a --manifest "
+                         "path of its own; nothing was written")
+    if os.path.exists(manifest) and not args.overwrite and not batch.is_manifest(manifest):
+        raise ValueError(f"{manifest}: exists and is not a liff manifest; expected a new "
+                         "--manifest path (or --overwrite to replace it); nothing was written")
 
 
 def describe_slopes(outcome: batch.Outcome) -> str:
@@ -248,7 +270,12 @@ def describe_slopes(outcome: batch.Outcome) -> str:
 def run(args: argparse.Namespace) -> int:
     if not args.paths and not args.from_list:
         args.parser.error("the following arguments are required: PATH (or --from-list FILE)")
-    tasks, kept, redo = plan(args, common.reader_options(args), common.detector_parameters(args))
+    common.make_detector(common.detector_parameters(args))  # bad parameters: before any reading
+    tasks, kept, redo = plan(args, common.reader_options(args),
+                             common.detector_parameters(args, given_only=True))
+    manifest = manifest_path(args)
+    if manifest:
+        check_manifest(manifest, args, tasks, kept)
     for out, reasons in redo.items():
         print(f"redoing {out}, out of date: {'; '.join(reasons)}")
     outcomes = run_tasks(tasks, args)
@@ -262,8 +289,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"skipped {len(kept)} input(s) whose outputs exist, made with the same settings "
               "(--overwrite to redo them)")
     failed = sum(outcome.status == "failed" for outcome in outcomes)
-    manifest = manifest_path(args)
-    if manifest and (tasks or args.manifest):
+    if manifest:
         batch.write_manifest(manifest, outcomes + kept)
         print(f"manifest: {manifest}")
     if failed:

@@ -35,13 +35,13 @@ def add_parser(sub) -> None:
                         "of the light fields)")
     p.add_argument("--format", choices=FORMATS, default="npz",
                    help="how each light field is stored (default npz)")
-    p.add_argument("--views", type=int, default=None,
+    p.add_argument("--views", type=common.positive_int, default=None,
                    help="T = S (default 9; poses: 7)")
-    p.add_argument("--size", type=int, nargs=2, default=None, metavar=("V", "U"),
+    p.add_argument("--size", type=common.positive_int, nargs=2, default=None, metavar=("V", "U"),
                    help="view size (default 256 256; poses: 240 320)")
-    p.add_argument("--poses", type=int, default=5, metavar="N",
+    p.add_argument("--poses", type=common.positive_int, default=5, metavar="N",
                    help="poses: how many camera poses (default 5)")
-    p.add_argument("--noise", type=float, default=0.0, help="noise variance (default 0)")
+    p.add_argument("--noise", type=common.nonnegative_float, default=0.0, help="noise variance (default 0)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the scene and the noise (default 0); the same seed gives the "
                         "same files")

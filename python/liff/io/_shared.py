@@ -209,6 +209,10 @@ def pick_key(source: str, names: Sequence[str], key: Optional[str], preferred: s
             key = preferred
         elif len(candidates) == 1:
             key = candidates[0]
+        elif {"keypoints", "descriptors", "meta"} <= set(names):
+            raise ValueError(f"{source}: a liff feature file (keypoints and descriptors, as "
+                             "liff detect writes them), not a light field; expected a light "
+                             "field")
         else:
             raise ValueError(f"{source}: {kind}s {names}; expected one named {preferred!r}, a "
                              f"single {kind}, or key=...")

@@ -100,7 +100,7 @@ def read_light_field(path: PathLike, format: Optional[str] = None, bit_depth=Non
     path = os.fspath(path)
     if not os.path.exists(path):
         raise ValueError(f"{path}: no such file or folder; expected a light field "
-                         f"({_accepted_formats()})")
+                         "(liff.io.read_light_field lists the formats read)")
     if format is None:
         format = guess_format(path)
         if format is None:

@@ -90,6 +90,7 @@ def run_task(task: Task) -> Outcome:
     outcome; an error reading, detecting or writing is in ``Outcome.error``, not raised."""
     from .cli.detect import detect_one
 
+    _reuse_freed_memory()
     with _ONE_AT_A_TIME, _worker_resources() as worker:
         start, cpu = time.perf_counter(), time.process_time()
         try:
@@ -123,7 +124,6 @@ def _worker_resources():
     from . import getNumThreads, setNumThreads
     from .cli import common
 
-    _reuse_freed_memory()
     threads, memory = getNumThreads(), common.memory_limit_mb
     setNumThreads(worker.state.nthreads)
     limit = worker.memory_manager.memory_limit
@@ -143,18 +143,21 @@ ALLOCATOR_THRESHOLD_BYTES = 32 * 2**20
 
 
 def _reuse_freed_memory() -> None:
-    """Lets a Dask worker's allocator reuse LiFF's freed slice buffers.
+    """Lets the process's allocator reuse LiFF's freed slice buffers (once per process,
+    for every task: on a Dask worker, a local worker process, or here).
 
-    Dask's nanny starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``, which also turns
-    off glibc's adaptive mmap threshold: then every buffer over 128 KiB is mapped from the
-    system and unmapped when freed, and LiFF, which allocates each focal slice's scale
-    space anew, spends its time on page faults (about 17% more processor time on an
-    Illum-size light field, docs/BENCHMARKS.md). Raising both thresholds to 32 MiB keeps
-    buffers up to that size in the process, and returns freed memory beyond it, as
-    Dask wants. Process-wide and idempotent; only where the nanny's setting is present
-    and the C library is glibc."""
-    if "MALLOC_TRIM_THRESHOLD_" not in os.environ:
+    LiFF allocates each focal slice's scale space anew. Dask's nanny starts workers
+    with ``MALLOC_TRIM_THRESHOLD_=65536``, which also turns off glibc's adaptive mmap
+    threshold: then every buffer over 128 KiB is mapped from the system and unmapped
+    when freed, and a task spends its time on page faults (about 17% more processor
+    time on an Illum-size light field, docs/BENCHMARKS.md). Fixed thresholds of 32 MiB
+    (glibc's mallopt M_MMAP_THRESHOLD / M_TRIM_THRESHOLD; the adaptive threshold's own
+    ceiling) keep buffers up to that size in the process and return freed memory
+    beyond it, as Dask wants. Process-wide; nothing where the C library is not glibc."""
+    global _ALLOCATOR_SET
+    if _ALLOCATOR_SET:
         return
+    _ALLOCATOR_SET = True
     import ctypes
 
     try:
@@ -164,6 +167,9 @@ def _reuse_freed_memory() -> None:
     m_trim_threshold, m_mmap_threshold = -1, -3  # <malloc.h>
     mallopt(m_mmap_threshold, ALLOCATOR_THRESHOLD_BYTES)
     mallopt(m_trim_threshold, ALLOCATOR_THRESHOLD_BYTES)
+
+
+_ALLOCATOR_SET = False
 
 
 def connect(client) -> "distributed.Client":

@@ -207,9 +207,10 @@ def test_slopes_for_view_counts_needs_a_light_field_when_automatic(far_layers):
     assert liff.LiFF.create().slopesFor(lf) == sorted(liff.LiFF.create().slopesFor(lf))
 
 
-def test_compute_describes_on_the_slices_detection_used(far_layers):
+@pytest.mark.parametrize("bounds", [{}, {"firstSlope": -2.6}, {"lastSlope": 2.6}])
+def test_compute_describes_on_the_slices_detection_used(far_layers, bounds):
     lf, _ = far_layers
-    d = liff.LiFF.create()
+    d = liff.LiFF.create(**bounds)
     kps, desc = d.detectAndCompute(lf)
     again, desc2 = d.compute(lf, kps)
     assert_same_keypoints(again, kps)

@@ -198,11 +198,15 @@ SlopePlan LiFF_Impl::planSlices(const Parameters& parameters, const LightField& 
     return plan;
   }
   // compute() describes on the grid detection uses, without a survey (the survey sets
-  // only which grid slices are built), unless numSlopes spreads slices over its range.
-  if (describing && (lf.T > 1 || lf.S > 1) && parameters.numSlopes == 0) {
+  // only which grid slices are built), unless numSlopes spreads slices over its range
+  // or two views make the plan a fixed one (no survey either).
+  if (describing && std::max(lf.T, lf.S) > 2 && parameters.numSlopes == 0) {
     std::vector<double> slopes;
     for (const cv::KeyPoint& kp : *describing) slopes.push_back(keypointSlope(kp));
-    return detail::describingPlan(lf.T, lf.S, slopes);
+    const double origin = std::isfinite(parameters.firstSlope)  ? parameters.firstSlope
+                          : std::isfinite(parameters.lastSlope) ? parameters.lastSlope
+                                                                : 0.0;
+    return detail::describingPlan(lf.T, lf.S, slopes, origin);
   }
   return detail::automaticPlan(lf, parameters, batch);
 }

@@ -363,16 +363,17 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
                      !std::isfinite(hi), unit, lf.T, lf.S);
 }
 
-SlopePlan describingPlan(int T, int S, const std::vector<double>& slopes) {
+SlopePlan describingPlan(int T, int S, const std::vector<double>& slopes, double origin) {
   const double unit = sliceSpacing(T, S);
   CV_Assert(unit > 0);
   std::set<long> positions;
-  for (double m : slopes) positions.insert(std::lround(m / unit));
+  for (double m : slopes) positions.insert(std::lround((m - origin) / unit));
   SlopePlan plan;
+  plan.origin = origin;
   plan.step = unit;
   for (long k : positions) {
     plan.grid.push_back(int(k));
-    plan.slopes.push_back(double(k) * unit);
+    plan.slopes.push_back(origin + double(k) * unit);
     plan.searched.push_back(true);
   }
   setBlurTarget(plan, T, S, true);

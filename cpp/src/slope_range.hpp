@@ -67,9 +67,10 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
 SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch);
 
 /// compute() with an automatic range and several views: the slices of the grid
-/// k * sliceSpacing nearest each of `slopes` (the given keypoints'), the slices
-/// detection describes them on.
-SlopePlan describingPlan(int T, int S, const std::vector<double>& slopes);
+/// origin + k * sliceSpacing (origin: the finite bound of a half-automatic range, else
+/// 0) nearest each of `slopes` (the given keypoints'), the slices detection describes
+/// them on.
+SlopePlan describingPlan(int T, int S, const std::vector<double>& slopes, double origin = 0);
 
 }  // namespace detail
 }  // namespace liff

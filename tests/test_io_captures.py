@@ -565,6 +565,11 @@ def test_cli_mask_file_and_auto(tmp_path, blob_lf, capsys):
     assert re.search(r"small\.png: mask is 96x50 \(width x height\); expected the views' size "
                      r"96x96 of .*lf\.npy", capsys.readouterr().err)
 
+    assert main(["detect", str(tmp_path / "lf.npy"), "--out", str(tmp_path / "n.npz"),
+                 "--mask", str(tmp_path / "missing.png")]) == 1
+    assert "--mask " + str(tmp_path / "missing.png") + ": no such file" in capsys.readouterr().err
+    assert not (tmp_path / "n.npz").exists()
+
     capture = synthetic.lenslet_capture(synthetic.textured_layers((5, 5, 96, 128)).light_field,
                                         border=0.02)
     np.save(tmp_path / "capture.npy", capture)

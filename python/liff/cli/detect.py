@@ -271,6 +271,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.paths and not args.from_list:
         args.parser.error("the following arguments are required: PATH (or --from-list FILE)")
     common.make_detector(common.detector_parameters(args))  # bad parameters: before any reading
+    mask.check_mask_option(getattr(args, "mask", None))
     tasks, kept, redo = plan(args, common.reader_options(args),
                              common.detector_parameters(args, given_only=True))
     manifest = manifest_path(args)

@@ -19,6 +19,13 @@ def add_mask_option(parser: argparse.ArgumentParser) -> None:
              "capture's black, vignetted border (liff.preprocess.border_mask; docs/INPUTS.md)")
 
 
+def check_mask_option(spec: Optional[str]) -> None:
+    """Raises ValueError, before any light field is read, if ``--mask`` names no file."""
+    if spec is not None and spec != AUTO and not os.path.isfile(spec):
+        raise ValueError(f"--mask {spec}: no such file; expected an image of the views' size, "
+                         f"or '{AUTO}'")
+
+
 def load_mask(spec: Optional[str], light_field: np.ndarray, source: str) -> Optional[np.ndarray]:
     """The detection mask for ``light_field`` (read from ``source``): None without
     ``--mask``, :func:`liff.preprocess.border_mask` for ``auto``, else the image at
@@ -37,7 +44,10 @@ def load_mask(spec: Optional[str], light_field: np.ndarray, source: str) -> Opti
         return border_mask(light_field)
     from ..io.images import read_image
 
-    image = read_image(spec)
+    try:
+        image = read_image(spec)
+    except ValueError as error:  # (the message names the file; say which option gave it)
+        raise ValueError(f"--mask: {error}") from None
     if image.ndim == 3:  # the colour channels; alpha (C = 2 or 4) is not part of the mask
         image = image[..., : 1 if image.shape[2] == 2 else 3].max(axis=2)
     V, U = light_field.shape[2:4]

@@ -128,6 +128,17 @@ def test_inputs_from_folders_globs_and_a_list(tmp_path, capsys):
     assert "no file matches the pattern" in capsys.readouterr().err
 
 
+def test_batch_detect_takes_one_path_and_refuses_bad_arguments_up_front(tmp_path):
+    paths = write_light_fields(tmp_path / "in", 2)
+    outcomes = batch.detect(str(tmp_path / "in"), str(tmp_path / "out"))  # a str: one path
+    assert [o.status for o in outcomes] == ["done", "done"] and len(paths) == 2
+    for kwargs, message in (({"workers": 0}, "workers"), ({"firstSlope": 1.0, "lastSlope": -1.0},
+                                                         "firstSlope")):
+        with pytest.raises(ValueError, match=f"{message}.*expected"):
+            batch.detect(paths, str(tmp_path / "other"), **kwargs)
+    assert not (tmp_path / "other").exists()
+
+
 def test_an_unreachable_scheduler_is_a_clear_error_within_seconds(tmp_path, capsys):
     paths = write_light_fields(tmp_path / "in", 2)
     with socket.socket() as s:  # a port nobody listens on

@@ -357,7 +357,7 @@ def test_detect_slope_bounds_given_win_each_end_and_a_rerun_keeps_its_output(tmp
     assert re.search(r"slopes -1\.00 to \+[.\d]+ \(given \+ parameters\.cfg\)", capsys.readouterr().out)
     assert main(["detect", scene, "--out", str(tmp_path / "b.npz"), "--first-slope=-inf",
                  "--last-slope=inf"]) == 0
-    assert "(given)" in capsys.readouterr().out
+    assert "(automatic)" in capsys.readouterr().out
     assert load_features(str(tmp_path / "b.npz")).meta["parameters"]["firstSlope"] == -math.inf
     assert main(["detect", scene, "--out", str(tmp_path / "c.npz")]) == 0
     assert main(["detect", scene, "--out", str(tmp_path / "c.npz")]) == 0

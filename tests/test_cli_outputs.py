@@ -238,3 +238,19 @@ def test_sfm_refuses_a_workspace_in_an_input_folder(tmp_path, capsys):
     assert main(["sfm", str(poses), "--workspace", str(poses)]) == 1
     assert "inside the input folder" in capsys.readouterr().err
     assert sorted(os.listdir(poses)) == before
+
+
+def test_detect_writes_nothing_inside_a_folder_of_light_fields_given(disks, tmp_path, capsys):
+    """A folder of light-field files is an input too: outputs, plots and manifests
+    inside it would be read as light fields by the next run over the folder."""
+    folder = tmp_path / "lfs"
+    folder.mkdir()
+    os.replace(disks, folder / disks.name)
+    for argv, flag in ((["--out", str(folder)], "--out"), (["--out", str(folder / "f")], "--out"),
+                       (["--out", str(tmp_path / "o"), "--manifest", str(folder / "m.csv")],
+                        "--manifest")):
+        before = sorted(os.listdir(folder))
+        assert main(["detect", str(folder), *argv]) == 1
+        err = capsys.readouterr().err
+        assert ("inside the input folder" in err or "is the input" in err) and flag in err
+        assert sorted(os.listdir(folder)) == before

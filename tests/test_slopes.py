@@ -120,11 +120,27 @@ def test_explicit_numslopes_with_an_automatic_range(far_layers):
     assert len(match.slope_errors) >= 0.9 * len(blobs) and np.max(np.abs(match.slope_errors)) < 0.25
 
 
-def test_numslopes_too_few_for_guards_are_all_searched(far_layers):
+@pytest.mark.parametrize("n", [3, 4])
+def test_numslopes_too_few_for_guards_are_all_searched(far_layers, n):
+    """Guards would leave fewer than three searched slices, too far apart to place a
+    feature between them: all n are searched, as a hand-set range."""
     lf, _ = far_layers
-    d = liff.LiFF.create(numSlopes=3)
+    d = liff.LiFF.create(numSlopes=n)
     d.detect(lf)
-    assert len(d.getSlicesUsed()) == 3 and d.getSearchedSlopes() == d.getSlicesUsed()
+    assert len(d.getSlicesUsed()) == n and d.getSearchedSlopes() == d.getSlicesUsed()
+
+
+@pytest.mark.parametrize("bounds", [{"lastSlope": 6.0}, {"firstSlope": -6.0}])
+def test_numslopes_with_a_far_finite_bound_keeps_a_guard_on_that_side(far_layers, bounds):
+    """A finite bound well beyond the scene: the plan's end on that side is not the
+    bound's slice, so it gets a guard too, and the outer layer keeps its slope."""
+    lf, blobs = far_layers
+    d = liff.LiFF.create(numSlopes=7, **bounds)
+    keypoints = d.detect(lf)
+    used, searched = d.getSlicesUsed(), d.getSearchedSlopes()
+    assert searched == used[1:-1]
+    match = matched(keypoints, blobs)
+    assert len(match.slope_errors) >= 0.9 * len(blobs) and np.max(np.abs(match.slope_errors)) < 0.25
 
 
 def test_half_automatic_range_stays_within_its_finite_bound(far_layers):
@@ -170,6 +186,28 @@ def test_two_views_use_a_narrow_range(shape):
     errors = np.abs(liff.keypoint_slopes(keypoints) - scene.slope_map[pts[:, 1], pts[:, 0]])
     assert len(errors) > 100 and np.mean(errors > 1) < 0.2
     assert len(d._survey(scene.light_field)) == 0  # no survey, so no warning from ghosts
+
+
+@pytest.mark.parametrize("bounds, expected", [
+    ({"firstSlope": -0.5}, (-0.5, 2.0)), ({"lastSlope": 1.0}, (-2.0, 1.0)),
+    ({"firstSlope": -8187.0}, (-2.0, 2.0)), ({"firstSlope": 3.0}, (3.0, 7.0)),
+    ({"lastSlope": -5.0}, (-9.0, -5.0))])
+def test_two_views_half_automatic_ranges_stay_narrow(bounds, expected):
+    scene = synthetic.textured_layers((2, 2, 64, 64), (-0.5, 0.0, 0.5), seed=0)
+    d = liff.LiFF.create(**bounds)
+    d.detect(scene.light_field)
+    used = d.getSlicesUsed()
+    assert (used[0], used[-1]) == pytest.approx(expected)
+
+
+def test_no_feature_with_the_automatic_range_warns_of_its_bound():
+    """17x17 views of 64 pixels consider slopes within +-1 only (docs/SLOPES.md); layers
+    at -1.5 and 1.2 give no feature: the warning names the bound and what to set."""
+    lf, _ = blob_layers([-1.5, 1.2], n=17, size=64, per_layer=4)
+    with pytest.warns(liff.SlopeRangeWarning, match=r"within \+-1\.00 .*set firstSlope and lastSlope"):
+        assert len(liff.LiFF.create().detect(lf)) == 0
+    found = liff.LiFF.create(firstSlope=-2, lastSlope=2).detect(lf)
+    assert len(found) > 0
 
 
 def test_views_too_small_to_survey_search_every_slope_up_to_the_bound():

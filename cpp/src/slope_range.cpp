@@ -128,15 +128,16 @@ std::vector<double> surveyLevel(const LightField& small, int factor, const std::
 }
 
 // numSlopes = n slices evenly from slope a to b (the first and last the default plan
-// would search), plus an unsearched guard beyond each automatic end, so that a feature
-// at a or b has a slice on either side and is not pinned there: with both ends
-// automatic, n - 2 searched slices, spacing (b - a) / (n - 3). Where a = b the searched
-// slices share one default spacing `unit` around it. Too few slices for guards and two
-// searched ones (n = 3 with both ends automatic, n <= 2): all n searched, spanning
-// [a, b] (one at its middle for n = 1), as a hand-set range.
+// would search), plus an unsearched guard beyond each end that asks for one (every end
+// but a finite bound's own slice), so that a feature at a or b has a slice on either
+// side and is not pinned there: with two guards, n - 2 searched slices, spacing
+// (b - a) / (n - 3). Where a = b the searched slices share one default spacing `unit`
+// around it. Too few slices for guards and three searched ones (fewer would space them
+// too far apart to place a feature between them): all n searched, spanning [a, b] (one
+// at its middle for n = 1), as a hand-set range.
 SlopePlan countedPlan(int n, double a, double b, bool guardLow, bool guardHigh, double unit,
                       int T, int S) {
-  if (n - int(guardLow) - int(guardHigh) < 2) guardLow = guardHigh = false;
+  if (n - int(guardLow) - int(guardHigh) < 3) guardLow = guardHigh = false;
   const int searchedCount = n - int(guardLow) - int(guardHigh);
   if (b - a < 1e-9) {
     a -= 0.5 * unit;
@@ -308,10 +309,14 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
     // Two views along the longer axis: a slice at a wrong slope averages two views, which
     // a texture matches about as often as at the right slope, so neither the survey nor
     // LiFF can tell slopes far apart. A narrow range, one spacing either side of 0
-    // (within the bounds given), as a hand-set one.
+    // (cut by a bound given; two spacings from a bound given beyond it), as a hand-set one.
     Parameters narrow = p;
-    narrow.firstSlope = std::isfinite(lo) ? lo : std::min(-unit, hi - 2 * unit);
-    narrow.lastSlope = std::isfinite(hi) ? hi : std::max(unit, narrow.firstSlope + 2 * unit);
+    narrow.firstSlope = std::max(-unit, lo);
+    narrow.lastSlope = std::min(unit, hi);
+    if (!(narrow.firstSlope < narrow.lastSlope)) {  // the bound given lies beyond it
+      narrow.firstSlope = std::isfinite(lo) ? lo : hi - 2 * unit;
+      narrow.lastSlope = std::isfinite(lo) ? lo + 2 * unit : hi;
+    }
     SlopePlan plan = uniformPlan(narrow, lf.T, lf.S);
     setBlurTarget(plan, lf.T, lf.S, false);
     return plan;
@@ -358,9 +363,10 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
       }
     return inside;
   }
-  return countedPlan(p.numSlopes, origin + double(*searched.begin()) * unit,
-                     origin + double(*searched.rbegin()) * unit, !std::isfinite(lo),
-                     !std::isfinite(hi), unit, lf.T, lf.S);
+  // A guard beyond each end, unless that end is a finite bound's own slice.
+  const double a = origin + double(*searched.begin()) * unit;
+  const double b = origin + double(*searched.rbegin()) * unit;
+  return countedPlan(p.numSlopes, a, b, !(a <= lo + 1e-9), !(b >= hi - 1e-9), unit, lf.T, lf.S);
 }
 
 SlopePlan describingPlan(int T, int S, const std::vector<double>& slopes, double origin) {

@@ -56,14 +56,16 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
 /// uncertainty, of a surveyed slope, each searched, and their grid neighbours as
 /// unsearched guards; gaps between surveyed slopes are skipped. With numSlopes > 0,
 /// that many slices evenly from the first to the last slope the default would search,
-/// plus one unsearched guard beyond each automatic end (so no feature is pinned there).
+/// plus one unsearched guard beyond each end that is not a finite bound's own slice (so
+/// no feature is pinned there), when at least three slices remain searched.
 /// No slice lies beyond a finite bound [lo, hi]; a slice at it is searched, as the ends
 /// of a hand-set range are. When the survey finds nothing (a blank light field), the
 /// plan spans the paper's [-1, 1] within the bounds; views too small to survey (under
 /// 32 pixels) get every slope up to largestSlope (rounded outward to the grid). With
 /// two views along the longer axis (stereo pairs, 2 x 2), where slopes far from the
 /// truth focus textures as well as the truth, no survey: [-2, 2] (one spacing either
-/// side of 0, within the bounds given) as a hand-set range.
+/// side of 0) cut by the bound given, or two spacings from a bound beyond it, as a
+/// hand-set range.
 SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch);
 
 /// compute() with an automatic range and several views: the slices of the grid

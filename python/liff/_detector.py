@@ -17,6 +17,9 @@ from ._warnings import SlopeRangeWarning
 from .keypoint_rows import SLOPE_SCALE, KeyPoints, keypoints_to_rows, rows_to_keypoints
 
 RANGE_END_SHARE = 0.05
+#: Below this largest automatic slope (pixels per view step), finding no feature is
+#: worth a warning: scenes often reach beyond it (camera arrays, gantries).
+SMALL_REACH = 3.0
 """A hand-set slope range warns when more than this share of features sit at its ends."""
 
 
@@ -189,7 +192,7 @@ class LiFF(_core.LiFF):
         """
         array = _as_light_field(lf)
         rows, _ = self._run(array, _as_mask(mask), None, False)
-        self._check_range_ends(array, rows)
+        self._check_range_ends(array, rows, mask is not None)
         return rows_to_keypoints(rows)
 
     def compute(self, lf, keypoints, descriptors=None) -> Tuple[KeyPoints, Optional[np.ndarray]]:
@@ -227,10 +230,29 @@ class LiFF(_core.LiFF):
             raise ValueError("useProvidedKeypoints=True: call compute(lf, keypoints) instead")
         array = _as_light_field(lf)
         rows, desc = self._run(array, _as_mask(mask), None, True)
-        self._check_range_ends(array, rows)
+        self._check_range_ends(array, rows, mask is not None)
         return rows_to_keypoints(rows), (desc if len(rows) else None)
 
-    def _check_range_ends(self, lf: np.ndarray, rows: np.ndarray) -> None:
+    def _check_range_ends(self, lf: np.ndarray, rows: np.ndarray, masked: bool = False) -> None:
+        """The range warnings: :meth:`_check_pinned_ends`, and with an automatic range
+        and no feature, that slopes beyond the largest one considered, R, are not
+        searched (docs/SLOPES.md, "Bound"): where R is small (under SMALL_REACH), the
+        views are large enough to survey, no mask was given and the light field is not
+        constant."""
+        if not len(rows) and math.isinf(self.getFirstSlope()) and math.isinf(self.getLastSlope()):
+            T, S = (lf.shape[0], lf.shape[1]) if lf.ndim >= 4 else (1, 1)
+            n, side = max(T, S), min(lf.shape[-3:-1]) if lf.ndim == 5 else min(lf.shape[-2:])
+            reach = side / (4.0 * (n - 1)) if n > 2 else math.inf
+            if reach < SMALL_REACH and side >= 64 and not masked and np.ptp(lf) > 0:
+                warnings.warn(f"no features with the automatic slope range, which considers "
+                              f"slopes within +-{reach:.2f} (min(V, U) / (4 (max(T, S) - 1)) "
+                              f"for {T}x{S} views of {lf.shape[3]}x{lf.shape[2]}); if the "
+                              "scene's slopes reach beyond, set firstSlope and lastSlope",
+                              SlopeRangeWarning, stacklevel=3)
+            return
+        self._check_pinned_ends(lf, rows)
+
+    def _check_pinned_ends(self, lf: np.ndarray, rows: np.ndarray) -> None:
         """Warns (SlopeRangeWarning) when more than RANGE_END_SHARE of the features sit
         at a hand-set end of the slope range (firstSlope or lastSlope finite) and the
         automatic survey (docs/SLOPES.md) finds structure beyond that end: their slopes

@@ -264,9 +264,10 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
 
     Parameters
     ----------
-    paths : sequence of str
+    paths : str or sequence of str
         Light fields, folders of light fields, glob patterns (see
-        :func:`liff.cli.common.expand_inputs`).
+        :func:`liff.cli.common.expand_inputs`); nothing is written inside a folder
+        given.
     out : str
         Output folder (created if missing).
     client : distributed.Client or str, optional
@@ -288,6 +289,12 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
     -------
     list of Outcome
         One per light field: done, failed (with the error) or kept.
+
+    Raises
+    ------
+    ValueError
+        Before anything runs: bad parameters or ``workers``, outputs over inputs or
+        inside a folder given, a manifest over an input, an output or a foreign file.
     """
     import argparse
 
@@ -295,6 +302,10 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
     from .cli import common
     from .cli.detect import check_manifest, plan
 
+    if isinstance(paths, (str, os.PathLike)):  # one path, not its letters
+        paths = [paths]
+    if not (isinstance(workers, int) and workers >= 1):
+        raise ValueError(f"workers = {workers!r}; expected a whole number >= 1")
     args = argparse.Namespace(paths=list(paths), out=os.path.join(out, ""), plot=None,
                               overwrite=overwrite, preprocess=preprocess, from_list=None)
     # slope bounds not given: a reader's range if it knows one, else automatic
@@ -303,6 +314,9 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
     if parameters:
         raise TypeError(f"unknown parameter(s) {sorted(parameters)}; expected liff.LiFF.create "
                         "keywords")
+    defaults = {p.name: p.default for p in PARAMETERS}
+    common.make_detector({name: defaults[name] if value is None else value  # bad parameters:
+                          for name, value in wanted.items()})              # refused up front
     tasks, kept, _ = plan(args, dict(reader_options or {}), wanted)
     if manifest:
         check_manifest(manifest, args, tasks, kept)

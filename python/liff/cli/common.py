@@ -110,6 +110,14 @@ def positive_float(text: str) -> float:
     return _finite(text, above=0.0)
 
 
+def ratio(text: str) -> float:
+    """argparse type: a ratio test's threshold, in (0, 1]."""
+    value = _finite(text, above=0.0)
+    if value > 1:
+        raise argparse.ArgumentTypeError(f"{text!r}; expected a number in (0, 1]")
+    return value
+
+
 def nonnegative_float(text: str) -> float:
     """argparse type: a finite number >= 0 (noise variances)."""
     return _finite(text, at_least=0.0)
@@ -198,25 +206,31 @@ def slope_range(parameters: dict, metadata: dict) -> Tuple[dict, str]:
 
     Each bound the user gave is kept (-inf / inf: automatic at that end); each one not
     given comes from the range a reader knows (an HCI scene's parameters.cfg disp_min
-    and disp_max) if it has one, else is automatic. The source says which: "given",
-    "parameters.cfg", "automatic", or two of them joined by " + " (given first)."""
+    and disp_max) if it has one and it does not cross the bound given, else is
+    automatic. The source says which: "given" (finite bounds given), "parameters.cfg",
+    "automatic", or two of them joined by " + " (given first)."""
     defaults = {p.name: p.default for p in PARAMETERS if p.name in SLOPE_BOUNDS}
     lo, hi = metadata.get("disp_min"), metadata.get("disp_max")
     hint = ({"firstSlope": float(lo), "lastSlope": float(hi)}
             if lo is not None and hi is not None and lo < hi else {})
+    given = {name: parameters[name] for name in SLOPE_BOUNDS if parameters.get(name) is not None}
+    if len(given) == 1 and hint:  # the reader's other end only where it keeps the order
+        (name, value), = given.items()
+        other = "lastSlope" if name == "firstSlope" else "firstSlope"
+        if (hint[other] > value) != (other == "lastSlope"):
+            hint = {}
     resolved, sources = dict(parameters), []
     for name in SLOPE_BOUNDS:
-        if parameters.get(name) is not None:
-            sources.append("given")
+        if name in given:
+            sources.append("given" if math.isfinite(given[name]) else "automatic")
         elif name in hint:
             resolved[name] = hint[name]
             sources.append("parameters.cfg")
         else:
             resolved[name] = defaults[name]
             sources.append("automatic")
-    if sources[0] == sources[1]:
-        return resolved, sources[0]
-    return resolved, " + ".join(sorted(set(sources), key=["given", "parameters.cfg", "automatic"].index))
+    order = ["given", "parameters.cfg", "automatic"]
+    return resolved, " + ".join(sorted(set(sources), key=order.index))
 
 
 #: setMemoryLimitMB of the detectors made here (0: LiFF's default, the memory available

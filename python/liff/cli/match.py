@@ -32,7 +32,7 @@ def add_parser(sub) -> None:
     p.add_argument("a", help="feature file (.npz from liff detect) or light field")
     p.add_argument("b", help="feature file (.npz from liff detect) or light field")
     p.add_argument("--plot", default=None, help="picture of the inlier matches (.png)")
-    p.add_argument("--ratio", type=common.positive_float, default=0.75, help="ratio test (default 0.75)")
+    p.add_argument("--ratio", type=common.ratio, default=0.75, help="ratio test (default 0.75)")
     p.add_argument("--model", choices=("homography", "fundamental"), default="homography",
                    help="RANSAC model (default homography)")
     p.add_argument("--threshold", type=common.positive_float, default=3.0, help="RANSAC pixels (default 3)")

@@ -24,7 +24,7 @@ def add_parser(sub) -> None:
                     "options, or from an input that knows it (an HCI scene).")
     p.add_argument("a", help="light field (or feature file from liff detect) of capture A")
     p.add_argument("b", help="light field (or feature file) of capture B")
-    p.add_argument("--ratio", type=common.positive_float, default=0.8, help="ratio test (default 0.8)")
+    p.add_argument("--ratio", type=common.ratio, default=0.8, help="ratio test (default 0.8)")
     p.add_argument("--max-size-factor", type=float, default=None, metavar="K",
                    help="scale-sensitive matching: reject candidates whose metric sizes differ "
                         "by more than K (e.g. 1.5)")

@@ -56,10 +56,16 @@ FULL = dict(scenes=3, poses=4, views=((5, 5), (9, 9)), size=(240, 320))
 QUICK = dict(scenes=1, poses=3, views=((5, 5),), size=(180, 240))
 
 
-# --- The one place that chooses the detector's slope range (until the detector picks
-# it itself): HCI from parameters.cfg's frustum range, captures from their known depths.
+# --- The one place that chooses the detector's slope range: HCI from parameters.cfg's
+# frustum range, captures from their known depths; with --automatic, the detector's own
+# automatic range (docs/SLOPES.md).
+AUTOMATIC = False
+
+
 def hci_slopes(scene) -> dict:
     """cotton's frustum is [-2, 2]: 17 slopes across it."""
+    if AUTOMATIC:
+        return {}
     lo = float(scene.parameters["meta"].get("frustum_disp_min", -2))
     hi = float(scene.parameters["meta"].get("frustum_disp_max", 2))
     return dict(firstSlope=lo, lastSlope=hi, numSlopes=17)
@@ -70,6 +76,8 @@ def capture_slopes(capture: captures.Capture) -> dict:
     (make_capture's slope_range); a quarter of the span is added on each side, as
     the arc's poses see the wall from a little farther and the nearest box a little
     nearer, with 21 slopes (8 per unit slope)."""
+    if AUTOMATIC:
+        return {}
     return dict(firstSlope=-1.25, lastSlope=1.25, numSlopes=21)
 # ---------------------------------------------------------------------------------------
 
@@ -366,7 +374,11 @@ def main(argv=None) -> int:
     parser.add_argument("--scenes", type=int, default=None, help="capture scenes (seeds 0..N-1)")
     parser.add_argument("--scene", default=DEFAULT_SCENE, help="HCI scene folder")
     parser.add_argument("--skip-hci", action="store_true")
+    parser.add_argument("--automatic", action="store_true",
+                        help="the detector's automatic slope range instead of the known ones")
     args = parser.parse_args(argv)
+    global AUTOMATIC
+    AUTOMATIC = args.automatic
     import pycolmap
 
     pycolmap.logging.minloglevel = 2
@@ -384,7 +396,9 @@ def main(argv=None) -> int:
     header = (f"{setup['scenes']} scenes x {len(NOISE) + 2} conditions x views "
               f"{', '.join(f'{v[0]}x{v[1]}' for v in setup['views'])}; {setup['poses']} poses of "
               f"{setup['size'][1]}x{setup['size'][0]} px on a 40-degree arc; contrastThreshold "
-              f"{CONTRAST_THRESHOLD}, low contrast {CONTRAST}; {time.time() - start:.0f} s")
+              f"{CONTRAST_THRESHOLD}, low contrast {CONTRAST}; slope ranges "
+              f"{'automatic' if AUTOMATIC else 'known (hci_slopes, capture_slopes)'}; "
+              f"{time.time() - start:.0f} s")
     print(header + "\n\n" + report(hci, results))
     return 0
 

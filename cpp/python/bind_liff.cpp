@@ -182,6 +182,15 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
       "descriptors"_a = true,
       "Core call: returns (keypoint rows (N, 7) float64, descriptors or None). Releases the GIL.");
   bindPersistence(cls);
+  m.def(
+      "_automatic_reach",
+      [](int T, int S, int V, int U) {
+        return detail::surveyed(T, S) ? detail::largestSlope(T, S, V, U) : std::nan("");
+      },
+      "T"_a, "S"_a, "V"_a, "U"_a,
+      "Largest |slope| (px per view step) the automatic range considers for T x S views of "
+      "V x U pixels, min(V, U) / (4 (max(T, S) - 1)); NaN where it runs no survey (one or "
+      "two views along the longer axis).");
 }
 
 }  // namespace python

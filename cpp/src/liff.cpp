@@ -49,14 +49,6 @@ void require(bool ok, const cv::String& message) {
 
 constexpr double kBytesPerMB = 1024.0 * 1024.0;
 
-// The one slope of a single view with an automatic range: a finite bound if one is
-// set, else 0.
-double singleViewSlope(const Parameters& p) {
-  return std::isfinite(p.firstSlope)  ? p.firstSlope
-         : std::isfinite(p.lastSlope) ? p.lastSlope
-                                      : 0.0;
-}
-
 // Slices searched together: one per thread, so that building their scale spaces
 // keeps every thread busy; memory stays at (batch + 2) scale spaces. Results do
 // not depend on it, so when memory is short the batch shrinks; when even one slice
@@ -120,7 +112,7 @@ class LiFF_Impl : public LiFF {
                "lastSlope = +inf): the slopes depend on the light field; expected "
                "slopesFor(lightField), or getSlicesUsed() after a detection");
     if (T == 1 && S == 1 && detail::automaticRange(parameters_))
-      return {singleViewSlope(parameters_)};
+      return {detail::gridOrigin(parameters_)};
     return detail::uniformPlan(parameters_, T, S).slopes;
   }
   std::vector<double> slopesFor(cv::InputArray lightField) override;
@@ -200,13 +192,10 @@ SlopePlan LiFF_Impl::planSlices(const Parameters& parameters, const LightField& 
   // compute() describes on the grid detection uses, without a survey (the survey sets
   // only which grid slices are built), unless numSlopes spreads slices over its range
   // or two views make the plan a fixed one (no survey either).
-  if (describing && std::max(lf.T, lf.S) > 2 && parameters.numSlopes == 0) {
+  if (describing && detail::surveyed(lf.T, lf.S) && parameters.numSlopes == 0) {
     std::vector<double> slopes;
     for (const cv::KeyPoint& kp : *describing) slopes.push_back(keypointSlope(kp));
-    const double origin = std::isfinite(parameters.firstSlope)  ? parameters.firstSlope
-                          : std::isfinite(parameters.lastSlope) ? parameters.lastSlope
-                                                                : 0.0;
-    return detail::describingPlan(lf.T, lf.S, slopes, origin);
+    return detail::describingPlan(lf.T, lf.S, slopes, detail::gridOrigin(parameters));
   }
   return detail::automaticPlan(lf, parameters, batch);
 }

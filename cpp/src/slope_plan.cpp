@@ -57,6 +57,10 @@ bool automaticRange(const Parameters& p) {
   return std::isinf(p.firstSlope) || std::isinf(p.lastSlope);
 }
 
+double gridOrigin(const Parameters& p) {
+  return std::isfinite(p.firstSlope) ? p.firstSlope : std::isfinite(p.lastSlope) ? p.lastSlope : 0.0;
+}
+
 SlopePlan uniformPlan(const Parameters& p, int T, int S) {
   require(T >= 1 && S >= 1,
           cv::format("T = %d, S = %d views; expected at least 1 view in each direction", T, S));

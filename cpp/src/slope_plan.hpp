@@ -50,6 +50,10 @@ std::vector<double> slopeGrid(double first, double last, int n);
 /// Whether `parameters` ask for the automatic slope range (an infinite bound).
 bool automaticRange(const Parameters& parameters);
 
+/// The slope an automatic range's grid passes through: the finite bound of a
+/// half-automatic range (so that a slice lies on it), else 0; a single view's one slope.
+double gridOrigin(const Parameters& parameters);
+
 /// The uniform plan of `parameters` (a finite range) for T x S views:
 /// linspace(firstSlope, lastSlope, n), every slice searched; n = numSlopes, or for
 /// numSlopes = 0 the smallest odd number that keeps neighbouring slices at most one

@@ -70,8 +70,11 @@ std::set<long> positionsIn(const Intervals& intervals, double step, double lo, d
 }
 
 // The plan of grid positions `searched` (slopes origin + k * step), each with its grid
-// neighbours as unsearched guards where they are not searched themselves.
-SlopePlan guardedPlan(std::set<long> searched, double step, int T, int S, double origin = 0) {
+// neighbours as unsearched guards where they are not searched themselves, except beyond
+// a finite bound [lo, hi]: a slice at the bound then skips that side, as the ends of a
+// hand-set range do, so no slope is reported beyond it.
+SlopePlan guardedPlan(std::set<long> searched, double step, int T, int S, double origin = 0,
+                      double lo = -HUGE_VAL, double hi = HUGE_VAL) {
   // A one-position gap between two runs would be built as both runs' guard anyway:
   // search it too.
   for (auto it = searched.begin(); it != searched.end(); ++it) {
@@ -79,10 +82,10 @@ SlopePlan guardedPlan(std::set<long> searched, double step, int T, int S, double
     if (next != searched.end() && *next == *it + 2) searched.insert(*it + 1);
   }
   std::set<long> all(searched);
-  for (long k : searched) {
-    all.insert(k - 1);
-    all.insert(k + 1);
-  }
+  for (long k : searched)
+    for (long guard : {k - 1, k + 1})
+      if (origin + double(guard) * step >= lo - 1e-9 && origin + double(guard) * step <= hi + 1e-9)
+        all.insert(guard);
   SlopePlan plan;
   plan.origin = origin;
   plan.step = step;
@@ -174,6 +177,8 @@ double sliceSpacing(int T, int S) {
   return n > 1 ? 2.0 / (n - 1) : 0.0;
 }
 
+bool surveyed(int T, int S) { return std::max(T, S) >= 3; }
+
 double largestSlope(int T, int S, int V, int U) {
   const int n = std::max(T, S);
   return n > 1 ? std::min(V, U) / (4.0 * (n - 1)) : 0.0;
@@ -260,7 +265,7 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
   int finest = kFinestDecimation;
   while (finest > 2 && side / finest < kFinestSurveyView) finest /= 2;
   if (side / finest < kSmallestSurveyView) return survey;  // views too small to survey
-  if (std::max(lf.T, lf.S) < 3) return survey;  // two views: ghosts everywhere (automaticPlan)
+  if (!surveyed(lf.T, lf.S)) return survey;  // two views: ghosts everywhere (automaticPlan)
   int factor = finest;
   while (factor < kCoarsestDecimation && side / (factor * 2) >= kCoarsestSurveyView) factor *= 2;
   // The levels' light fields, finest first, each from the last (one pass over the
@@ -300,12 +305,12 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
   const double unit = sliceSpacing(lf.T, lf.S);
   if (unit == 0) {  // a single view: one slice
     SlopePlan plan;
-    plan.slopes = {std::isfinite(lo) ? lo : std::isfinite(hi) ? hi : 0.0};  // as slopesFor
+    plan.slopes = {gridOrigin(p)};  // as slopesFor
     plan.grid = {0};
     plan.searched = {true};
     return plan;  // (no interpolation blur: one view, never shifted)
   }
-  if (std::max(lf.T, lf.S) == 2) {
+  if (!surveyed(lf.T, lf.S)) {
     // Two views along the longer axis: a slice at a wrong slope averages two views, which
     // a texture matches about as often as at the right slope, so neither the survey nor
     // LiFF can tell slopes far apart. A narrow range, one spacing either side of 0
@@ -345,24 +350,10 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
     occupied = merged(spans);
   }
   // The grid starts at a finite bound the user gave, so that a slice lies on it.
-  const double origin = std::isfinite(lo) ? lo : std::isfinite(hi) ? hi : 0.0;
+  const double origin = gridOrigin(p);
   const std::set<long> searched = positionsIn(occupied, unit, lo, hi, origin);
-  if (p.numSlopes == 0 || searched.empty()) {
-    // No guard beyond a finite bound: a slice at the bound skips that side, as the
-    // ends of a hand-set range do, so no slope is reported beyond it.
-    SlopePlan plan = guardedPlan(searched, unit, lf.T, lf.S, origin), inside;
-    inside = plan;
-    inside.slopes.clear();
-    inside.grid.clear();
-    inside.searched.clear();
-    for (int k = 0; k < plan.size(); ++k)
-      if (plan.slopes[k] >= lo - 1e-9 && plan.slopes[k] <= hi + 1e-9) {
-        inside.slopes.push_back(plan.slopes[k]);
-        inside.grid.push_back(plan.grid[k]);
-        inside.searched.push_back(plan.searched[k]);
-      }
-    return inside;
-  }
+  if (p.numSlopes == 0 || searched.empty())
+    return guardedPlan(searched, unit, lf.T, lf.S, origin, lo, hi);
   // A guard beyond each end, unless that end is a finite bound's own slice.
   const double a = origin + double(*searched.begin()) * unit;
   const double b = origin + double(*searched.rbegin()) * unit;

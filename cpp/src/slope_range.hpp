@@ -17,6 +17,10 @@ namespace detail {
 /// 2 / (max(T, S) - 1) pixels per view step (0 for a single view).
 double sliceSpacing(int T, int S);
 
+/// Whether the automatic range comes from the survey: three or more views along the
+/// longer axis (one view has one slice; two get a fixed narrow range, automaticPlan).
+bool surveyed(int T, int S);
+
 /// Largest |slope| the automatic range considers, min(V, U) / (4 (max(T, S) - 1)): the
 /// two outermost views then differ by a quarter of the smaller view side; beyond it too
 /// little of the views overlaps to focus anything.

@@ -240,14 +240,15 @@ class LiFF(_core.LiFF):
         views are large enough to survey, no mask was given and the light field is not
         constant."""
         if not len(rows) and math.isinf(self.getFirstSlope()) and math.isinf(self.getLastSlope()):
-            T, S = (lf.shape[0], lf.shape[1]) if lf.ndim >= 4 else (1, 1)
-            n, side = max(T, S), min(lf.shape[-3:-1]) if lf.ndim == 5 else min(lf.shape[-2:])
-            reach = side / (4.0 * (n - 1)) if n > 2 else math.inf
-            if reach < SMALL_REACH and side >= 64 and not masked and np.ptp(lf) > 0:
+            if lf.ndim < 4:  # one view: one slice, no range
+                return
+            T, S, V, U = lf.shape[:4]
+            reach = _core._automatic_reach(T, S, V, U)  # NaN: no survey, nothing to warn of
+            if reach < SMALL_REACH and min(V, U) >= 64 and not masked and np.ptp(lf) > 0:
                 warnings.warn(f"no features with the automatic slope range, which considers "
                               f"slopes within +-{reach:.2f} (min(V, U) / (4 (max(T, S) - 1)) "
-                              f"for {T}x{S} views of {lf.shape[3]}x{lf.shape[2]}); if the "
-                              "scene's slopes reach beyond, set firstSlope and lastSlope",
+                              f"for {T}x{S} views of {U}x{V}); if the scene's slopes reach "
+                              "beyond, set firstSlope and lastSlope",
                               SlopeRangeWarning, stacklevel=3)
             return
         self._check_pinned_ends(lf, rows)

@@ -238,18 +238,22 @@ def _gather(client, tasks: Sequence[Task], progress) -> List[Outcome]:
     return outcomes
 
 
+#: A manifest's columns: the Outcome fields, in order.
+MANIFEST_FIELDS = tuple(field.name for field in fields(Outcome))
+
+
 def write_manifest(path: str, outcomes: Sequence[Outcome]) -> None:
     """Writes the outcomes as CSV (one row per light field, a header of the
     :class:`Outcome` fields), which pandas (``pd.read_csv``) and spreadsheets read."""
     with atomic_output(path) as partial, open(partial, "w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=[field.name for field in fields(Outcome)])
+        writer = csv.DictWriter(f, fieldnames=MANIFEST_FIELDS)
         writer.writeheader()
         writer.writerows(asdict(outcome) for outcome in outcomes)
 
 
 def is_manifest(path: str) -> bool:
     """Whether ``path`` is a manifest :func:`write_manifest` wrote (its CSV header)."""
-    header = ",".join(field.name for field in fields(Outcome))
+    header = ",".join(MANIFEST_FIELDS)
     try:
         with open(path, newline="") as f:
             return f.readline().rstrip("\r\n") == header
@@ -314,9 +318,7 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
     if parameters:
         raise TypeError(f"unknown parameter(s) {sorted(parameters)}; expected liff.LiFF.create "
                         "keywords")
-    defaults = {p.name: p.default for p in PARAMETERS}
-    common.make_detector({name: defaults[name] if value is None else value  # bad parameters:
-                          for name, value in wanted.items()})              # refused up front
+    common.make_detector(common.with_defaults(wanted))  # bad parameters: refused up front
     tasks, kept, _ = plan(args, dict(reader_options or {}), wanted)
     if manifest:
         check_manifest(manifest, args, tasks, kept)

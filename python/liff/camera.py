@@ -47,15 +47,23 @@ def _positive(name: str, value, allow_inf: bool = False) -> float:
     return value
 
 
-def _keypoint_arrays(keypoints: Sequence[cv2.KeyPoint]) -> Tuple[np.ndarray, np.ndarray]:
-    """(N, 2) positions and (N,) sizes of cv2.KeyPoints, float64."""
+def keypoint_geometry(keypoints: Sequence[cv2.KeyPoint]) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What the camera model measures of LiFF keypoints: positions (N, 2), centre-view
+    pixels; sizes (N,), pixels; slopes (N,), pixels per view step; all float64.
+
+    Raises
+    ------
+    ValueError
+        If an element is not a ``cv2.KeyPoint``, or the keypoints carry no slope (every
+        ``class_id`` -1, as ``cv2.SIFT``'s: :func:`liff.keypoint_slopes` with ``require``).
+    """
     keypoints = list(keypoints)
     for k in keypoints:
         if not isinstance(k, cv2.KeyPoint):
             raise ValueError(f"keypoints hold a {type(k).__name__}; expected cv2.KeyPoint")
     points = np.array([k.pt for k in keypoints], np.float64).reshape(-1, 2)
     sizes = np.array([k.size for k in keypoints], np.float64)
-    return points, sizes
+    return points, sizes, keypoint_slopes(keypoints, require=True)
 
 
 @dataclass(frozen=True)
@@ -176,8 +184,8 @@ class LightFieldCamera:
         ValueError
             If the keypoints carry no slope (every ``class_id`` -1, as ``cv2.SIFT``'s).
         """
-        points, _ = _keypoint_arrays(keypoints)
-        return self.back_project(points, self.depth(keypoint_slopes(keypoints, require=True)))
+        points, _, slopes = keypoint_geometry(keypoints)
+        return self.back_project(points, self.depth(slopes))
 
     def back_project(self, pixels, depths) -> np.ndarray:
         """3-D points (N, 3) at ``depths`` (N,) metres along the centre view's rays
@@ -197,8 +205,8 @@ class LightFieldCamera:
         scale-sensitive (:func:`liff.matching.ratio_matches`). ValueError if the
         keypoints carry no slope (every ``class_id`` -1, as ``cv2.SIFT``'s).
         """
-        _, sizes = _keypoint_arrays(keypoints)
-        return sizes * self.depth(keypoint_slopes(keypoints, require=True)) / self.focal_length
+        _, sizes, slopes = keypoint_geometry(keypoints)
+        return sizes * self.depth(slopes) / self.focal_length
 
     def matrix(self) -> np.ndarray:
         """The centre view's 3x3 calibration matrix K (OpenCV pixels), float64."""

@@ -24,8 +24,7 @@ from typing import List, Optional, Sequence, Tuple
 import cv2
 import numpy as np
 
-from .keypoint_rows import keypoint_slopes
-from .camera import LightFieldCamera
+from .camera import LightFieldCamera, keypoint_geometry
 from .matching import size_mask, ratio_matches
 
 #: chi-square (3 degrees of freedom: 6 residuals, 3 point parameters) below which a
@@ -149,12 +148,8 @@ class RelativePose:
 def observations(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
     """(x, y, slope) of LiFF keypoints, float64 (N, 3): centre-view pixels and pixels
     per view step."""
-    keypoints = list(keypoints)
-    for k in keypoints:
-        if not isinstance(k, cv2.KeyPoint):
-            raise ValueError(f"keypoints hold a {type(k).__name__}; expected cv2.KeyPoint")
-    xy = np.array([k.pt for k in keypoints], np.float64).reshape(-1, 2)
-    return np.column_stack([xy, keypoint_slopes(keypoints, require=True)])
+    xy, _, slopes = keypoint_geometry(keypoints)
+    return np.column_stack([xy, slopes])
 
 
 def _back_project(camera: LightFieldCamera, obs: np.ndarray) -> np.ndarray:

@@ -88,8 +88,7 @@ def write(args: argparse.Namespace, database: str, image_dir: str, focal=None,
 
     names = [common.output_name(path, ".png") for path in args.paths]
     refuse_inputs([database] + [os.path.join(image_dir, n) for n in names],
-                  args.paths + getattr(args, "given_paths", []),
-                  "--database / --image-dir / --workspace")
+                  common.protected_inputs(args), "--database / --image-dir / --workspace")
     if os.path.exists(database):
         if not args.overwrite:
             raise ValueError(f"{database}: exists; COLMAP needs a fresh database (or --overwrite)")
@@ -135,23 +134,21 @@ def scale_to_metres(result, images, camera, sparse: str) -> None:
 
 
 def run_colmap(args: argparse.Namespace) -> int:
-    args.given_paths = list(args.paths)  # folders given stay inputs: nothing written in them
-    args.paths = common.expand_inputs(args.paths, common.reader_options(args))
+    common.expand_args(args, common.reader_options(args))
     return 1 if write(args, args.database, args.image_dir) else 0
 
 
 def run_sfm(args: argparse.Namespace) -> int:
     from .. import colmap  # first: without pycolmap it says how to install it
 
-    args.given_paths = list(args.paths)  # folders given stay inputs: nothing written in them
-    args.paths = common.expand_inputs(args.paths, common.reader_options(args))
+    common.expand_args(args, common.reader_options(args))
     if len(args.paths) < 2:
         raise ValueError(f"{len(args.paths)} input; expected light fields of at least 2 camera "
                          "poses for structure from motion")
     database = os.path.join(args.workspace, "database.db")
     image_dir = os.path.join(args.workspace, "images")
     sparse = os.path.join(args.workspace, "sparse")
-    refuse_inputs([database, image_dir, sparse], args.paths + args.given_paths, "--workspace")
+    refuse_inputs([database, image_dir, sparse], common.protected_inputs(args), "--workspace")
     camera = camera_from_args(args)
     if args.overwrite:
         shutil.rmtree(sparse, ignore_errors=True)

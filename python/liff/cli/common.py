@@ -16,7 +16,7 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .._detector import PARAMETERS, LiFF
-from ..io._shared import IMAGE_SUFFIXES
+from ..io.images import IMAGE_SUFFIXES
 
 FILE_ENDINGS = IMAGE_SUFFIXES + (".npz", ".npy", ".db")
 
@@ -123,11 +123,16 @@ def nonnegative_float(text: str) -> float:
     return _finite(text, at_least=0.0)
 
 
-def _finite(text: str, above: float = -math.inf, at_least: float = -math.inf) -> float:
+def _number(text: str) -> float:
+    """``text`` as a float, NaN if it is not a number."""
     try:
-        value = float(text)
+        return float(text)
     except ValueError:
-        value = math.nan
+        return math.nan
+
+
+def _finite(text: str, above: float = -math.inf, at_least: float = -math.inf) -> float:
+    value = _number(text)
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"{text!r}; expected a finite number")
     if not (value > above and value >= at_least):
@@ -138,10 +143,7 @@ def _finite(text: str, above: float = -math.inf, at_least: float = -math.inf) ->
 
 def slope_bound(text: str) -> float:
     """argparse type of --first-slope / --last-slope: a number, or -inf / inf."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
+    value = _number(text)
     if math.isnan(value):
         raise argparse.ArgumentTypeError(f"{text!r}; expected a number, or -inf / inf for the "
                                          "automatic range")
@@ -194,10 +196,13 @@ def detector_parameters(args: argparse.Namespace, given_only: bool = False) -> d
     """Every create() keyword with its value from the parsed options; a slope bound not
     given is its default, or None with ``given_only`` (for :func:`slope_range`)."""
     values = {p.name: getattr(args, p.name) for p in PARAMETERS}
-    if not given_only:
-        values.update({p.name: p.default for p in PARAMETERS
-                       if p.name in SLOPE_BOUNDS and values[p.name] is None})
-    return values
+    return values if given_only else with_defaults(values)
+
+
+def with_defaults(parameters: dict) -> dict:
+    """``parameters`` with each one not given (None) at its create() default."""
+    defaults = {p.name: p.default for p in PARAMETERS}
+    return {name: defaults[name] if value is None else value for name, value in parameters.items()}
 
 
 def slope_range(parameters: dict, metadata: dict) -> Tuple[dict, str]:
@@ -209,7 +214,6 @@ def slope_range(parameters: dict, metadata: dict) -> Tuple[dict, str]:
     and disp_max) if it has one and it does not cross the bound given, else is
     automatic. The source says which: "given" (finite bounds given), "parameters.cfg",
     "automatic", or two of them joined by " + " (given first)."""
-    defaults = {p.name: p.default for p in PARAMETERS if p.name in SLOPE_BOUNDS}
     lo, hi = metadata.get("disp_min"), metadata.get("disp_max")
     hint = ({"firstSlope": float(lo), "lastSlope": float(hi)}
             if lo is not None and hi is not None and lo < hi else {})
@@ -219,18 +223,15 @@ def slope_range(parameters: dict, metadata: dict) -> Tuple[dict, str]:
         other = "lastSlope" if name == "firstSlope" else "firstSlope"
         if (hint[other] > value) != (other == "lastSlope"):
             hint = {}
-    resolved, sources = dict(parameters), []
+    resolved, sources = dict(parameters, **hint), []
     for name in SLOPE_BOUNDS:
         if name in given:
+            resolved[name] = given[name]
             sources.append("given" if math.isfinite(given[name]) else "automatic")
-        elif name in hint:
-            resolved[name] = hint[name]
-            sources.append("parameters.cfg")
         else:
-            resolved[name] = defaults[name]
-            sources.append("automatic")
+            sources.append("parameters.cfg" if name in hint else "automatic")
     order = ["given", "parameters.cfg", "automatic"]
-    return resolved, " + ".join(sorted(set(sources), key=order.index))
+    return with_defaults(resolved), " + ".join(sorted(set(sources), key=order.index))
 
 
 #: setMemoryLimitMB of the detectors made here (0: LiFF's default, the memory available
@@ -327,6 +328,19 @@ def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] 
             seen.add(os.path.realpath(path))
             unique.append(path)
     return unique
+
+
+def expand_args(args: argparse.Namespace, options: dict, from_list: Optional[str] = None) -> None:
+    """``args.paths`` expanded by :func:`expand_inputs`; the paths as given stay in
+    ``args.given_paths``: a folder given is an input too, so nothing is written inside it
+    (a later run over the folder would read the outputs as light fields)."""
+    args.given_paths = list(args.paths)
+    args.paths = expand_inputs(args.paths, options, from_list)
+
+
+def protected_inputs(args: argparse.Namespace) -> List[str]:
+    """What no output may be or lie inside: the light fields and the paths as given."""
+    return args.paths + getattr(args, "given_paths", [])
 
 
 def output_name(path: str, suffix: str) -> str:

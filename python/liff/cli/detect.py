@@ -173,10 +173,7 @@ def plan(args: argparse.Namespace, options: dict, parameters: dict) -> tuple:
         Before anything is written: outputs over inputs, colliding outputs, a file name
         for several inputs, a plot OpenCV cannot write, a foreign file in the way.
     """
-    # folders given stay inputs: nothing is written inside them (a later run over the
-    # folder would read its outputs as light fields)
-    folders = [p for p in args.paths if os.path.isdir(p)]
-    args.paths = common.expand_inputs(args.paths, options, args.from_list)
+    common.expand_args(args, options, args.from_list)
     if not args.paths:
         raise ValueError("no input; expected light fields as PATH arguments or --from-list")
     many = len(args.paths) > 1
@@ -194,9 +191,9 @@ def plan(args: argparse.Namespace, options: dict, parameters: dict) -> tuple:
             raise ValueError(f"{path} and {seen[out]} would both write {out}; expected inputs "
                              "with distinct names (or one --out per run)")
         seen[out] = path
-        refuse_inputs([out], args.paths + folders, "--out")
+        refuse_inputs([out], common.protected_inputs(args), "--out")
         if plot:
-            refuse_inputs([plot], args.paths + folders, "--plot")
+            refuse_inputs([plot], common.protected_inputs(args), "--plot")
             if not args.overwrite:
                 refuse_foreign_plot(plot, out)
         mask_spec = getattr(args, "mask", None)  # (liff.batch.detect has no --mask)
@@ -209,7 +206,6 @@ def plan(args: argparse.Namespace, options: dict, parameters: dict) -> tuple:
         if stale:
             redo[out] = stale
         tasks.append(task)
-    args.input_folders = folders
     return tasks, kept, redo
 
 
@@ -252,7 +248,7 @@ def check_manifest(manifest: str, args: argparse.Namespace, tasks: List[batch.Ta
     """Raises ValueError, before anything runs, if the manifest would write over an
     input, over another output of the run, or over an existing file that is not a liff
     manifest (unless ``--overwrite``)."""
-    refuse_inputs([manifest], args.paths + getattr(args, "input_folders", []), "--manifest")
+    refuse_inputs([manifest], common.protected_inputs(args), "--manifest")
     outputs = [t.output for t in tasks] + [t.plot for t in tasks if t.plot] + [k.output for k in kept]
     if any(os.path.exists(o) and os.path.exists(manifest) and os.path.samefile(o, manifest) or
            os.path.abspath(o) == os.path.abspath(manifest) for o in outputs):

@@ -200,9 +200,8 @@ std::vector<cv::KeyPoint> findKeypoints(const SliceNeighbourhood& slices,
                                         const SearchTask& task) {
   const ScaleSpace& space = *slices.here;
   const int layers = params.layers, o = task.o, i = task.layer;
-  // Cheap pre-test on |D| before the 80-neighbour comparison (as cv::SIFT: half the
-  // final contrast threshold).
-  const float preThreshold = float(0.5 * params.contrastThreshold / layers);
+  // Cheap pre-test on |D| before the 80-neighbour comparison.
+  const float preThreshold = float(kPreThresholdShare * params.contrastThreshold / layers);
   std::vector<cv::KeyPoint> keypoints;
   float hist[kOrientationBins];
 

@@ -54,6 +54,9 @@ std::vector<cv::KeyPoint> findKeypoints(const SliceNeighbourhood& slices,
 
 /// Keypoints closer than this to an octave image's border are not searched.
 constexpr int kImageBorder = 5;
+/// The cheap pre-test on |D| before the 80-neighbour comparison keeps samples above this
+/// share of the final contrast threshold per layer (as cv::SIFT).
+constexpr double kPreThresholdShare = 0.5;
 
 /// Whether sample (r, c) of dog(o, i) of `slices.here`, of value v, is >= (v > 0:
 /// maxima) or <= (minima) all 80 neighbours of its 3x3x3x3 (x, y, scale, slope)

@@ -7,9 +7,11 @@
 #include <map>
 #include <set>
 
+#include "extrema.hpp"
 #include "focal_stack.hpp"
 #include "pipeline.hpp"
 #include "scale_space.hpp"
+#include "slope_sweep.hpp"
 
 namespace liff {
 namespace detail {
@@ -38,15 +40,15 @@ constexpr double kDensityFactor = 3.0;
 /// A surveyed slope is within this share of its level's spacing of the feature's own
 /// (the sub-slice fit's error; docs/SLOPES.md).
 constexpr double kSurveyUncertainty = 0.25;
+/// A survey that finds nothing looks again at this share of the contrast threshold.
+constexpr double kRetryContrastShare = 0.5;
 /// The paper's rule of thumb, the range used when the survey finds nothing.
 constexpr double kPaperRange = 1.0;
 
 // Intervals of slopes [a, b], merged where they touch.
-using Intervals = std::vector<std::pair<double, double>>;
-
-Intervals merged(std::vector<std::pair<double, double>> spans) {
+SlopeIntervals merged(std::vector<std::pair<double, double>> spans) {
   std::sort(spans.begin(), spans.end());
-  Intervals out;
+  SlopeIntervals out;
   for (const auto& span : spans) {
     if (!out.empty() && span.first <= out.back().second)
       out.back().second = std::max(out.back().second, span.second);
@@ -58,7 +60,7 @@ Intervals merged(std::vector<std::pair<double, double>> spans) {
 
 // Grid positions k (slope origin + k * step) with a slope in one of `intervals` and in
 // [lo, hi].
-std::set<long> positionsIn(const Intervals& intervals, double step, double lo, double hi,
+std::set<long> positionsIn(const SlopeIntervals& intervals, double step, double lo, double hi,
                            double origin = 0) {
   std::set<long> positions;
   for (const auto& [a, b] : intervals) {
@@ -128,6 +130,20 @@ std::vector<double> surveyLevel(const LightField& small, int factor, const std::
     if (coherence[i] >= minCoherence(small.T * small.S))
       slopes.push_back(keypointSlope(unique[i]) * factor);
   return slopes;
+}
+
+// The plane sweep's slope intervals (full-resolution slopes within [lo, hi]) on `small`,
+// the light field decimated `factor` times; a pixel votes only where LiFF's pre-test
+// could keep its DoG response.
+SlopeIntervals textureSlopes(const LightField& small, int factor, double lo, double hi,
+                             const Parameters& p) {
+  const float minResponse = float(kPreThresholdShare * p.contrastThreshold / p.nOctaveLayers);
+  SlopeIntervals found = sweepSlopes(small, lo / factor, hi / factor, minResponse);
+  for (auto& [a, b] : found) {
+    a *= factor;
+    b *= factor;
+  }
+  return found;
 }
 
 // numSlopes = n slices evenly from slope a to b (the first and last the default plan
@@ -256,46 +272,79 @@ std::vector<double> dense(const std::vector<double>& found, const std::set<long>
   return kept;
 }
 
-SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, double hi,
-                         int batch) {
+// The survey levels (`levels`, finest first, level i decimated finest * 2^i times),
+// coarsest to finest: the coarsest over all of `all`, each finer one around the slopes
+// the last found and the plane sweep's `textures`.
+SlopeSurvey surveyLevels(const std::vector<LightField>& levels, int finest, double unit,
+                         const SlopeIntervals& all, const SlopeIntervals& textures,
+                         const Parameters& p, double lo, double hi, int batch) {
   SlopeSurvey survey;
-  const double unit = sliceSpacing(lf.T, lf.S);
-  const double reach = largestSlope(lf.T, lf.S, lf.V, lf.U);
-  const int side = std::min(lf.V, lf.U);
-  int finest = kFinestDecimation;
-  while (finest > 2 && side / finest < kFinestSurveyView) finest /= 2;
-  if (side / finest < kSmallestSurveyView) return survey;  // views too small to survey
-  if (!surveyed(lf.T, lf.S)) return survey;  // two views: ghosts everywhere (automaticPlan)
-  int factor = finest;
-  while (factor < kCoarsestDecimation && side / (factor * 2) >= kCoarsestSurveyView) factor *= 2;
-  // The levels' light fields, finest first, each from the last (one pass over the
-  // full light field in all).
-  std::vector<LightField> levels{decimate(lf, finest)};
-  for (int f = finest * 2; f <= factor; f *= 2) levels.push_back(decimate(levels.back(), 2));
-  Intervals candidates{{std::max(lo, -reach), std::min(hi, reach)}};
-  bool coarsest = true, sweepingAll = true;
+  SlopeIntervals candidates = all;
+  bool sweepingAll = true;
+  int factor = finest << (levels.size() - 1);
   for (int level = int(levels.size()) - 1; level >= 0; --level, factor /= 2) {
     // One pixel of parallax at the outermost view, at the resolution the level's scale
     // space starts from (its first octave doubles the decimated views).
     const double step = unit * factor / 2;
-    const std::set<long> positions = positionsIn(candidates, step, lo, hi);
+    // The sweep's slopes too: structure a coarser level missed may show at this one.
+    SlopeIntervals wanted(candidates);
+    for (const auto& [a, b] : textures)
+      wanted.emplace_back(a - kCandidateReach * step, b + kCandidateReach * step);
+    const std::set<long> positions = positionsIn(merged(wanted), step, lo, hi);
     const std::vector<double> found = surveyLevel(levels[level], factor, positions, step, p, batch);
     ++survey.levels;
     // Where a level searched every slope, keep only slopes with clearly more features
     // than the typical slope: with few views, textures make random extrema at every
     // wrong slope (a few per slope), structure makes many at its own.
     const std::vector<double> kept = sweepingAll ? dense(found, positions, step) : found;
-    coarsest = false;
     sweepingAll = sweepingAll && kept.empty();
     survey.slopes = kept;
     survey.spacing = step;
     // Nothing at this level: structure may still be too small for it; the next level
     // searches the same slopes.
     if (kept.empty()) continue;
-    std::vector<std::pair<double, double>> spans;
+    SlopeIntervals spans;
     for (double m : kept)
       spans.emplace_back(m - kCandidateReach * step, m + kCandidateReach * step);
     candidates = merged(spans);
+  }
+  survey.textures = textures;  // searched as they are: fine textures are only there
+  return survey;
+}
+
+SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, double hi,
+                         int batch) {
+  const double unit = sliceSpacing(lf.T, lf.S);
+  const double reach = largestSlope(lf.T, lf.S, lf.V, lf.U);
+  const int side = std::min(lf.V, lf.U);
+  int finest = kFinestDecimation;
+  while (finest > 2 && side / finest < kFinestSurveyView) finest /= 2;
+  if (side / finest < kSmallestSurveyView) return {};  // views too small to survey
+  if (!surveyed(lf.T, lf.S)) return {};  // two views: ghosts everywhere (automaticPlan)
+  int coarsest = finest;
+  while (coarsest < kCoarsestDecimation && side / (coarsest * 2) >= kCoarsestSurveyView)
+    coarsest *= 2;
+  // The plane sweep's light field (decimated half as much as the finest level: fine
+  // textures survive there) and the levels', finest first, each from the last (one pass
+  // over the full light field in all).
+  const int sweepFactor = finest / 2;
+  const LightField sweepLevel = sweepFactor > 1 ? decimate(lf, sweepFactor) : lf;
+  std::vector<LightField> levels{decimate(sweepLevel, finest / sweepFactor)};
+  for (int f = finest * 2; f <= coarsest; f *= 2) levels.push_back(decimate(levels.back(), 2));
+  const SlopeIntervals all{{std::max(lo, -reach), std::min(hi, reach)}};
+  const SlopeIntervals textures =
+      textureSlopes(sweepLevel, sweepFactor, all[0].first, all[0].second, p);
+  SlopeSurvey survey = surveyLevels(levels, finest, unit, all, textures, p, lo, hi, batch);
+  if (survey.slopes.empty() && textures.empty()) {
+    // Nothing at all, in a light field that need not be blank: decimation weakens fine
+    // structure (and noise hides it from the sweep), so look again at a lower contrast
+    // threshold, the coherence test still rejecting noise, before falling back to
+    // the paper's range.
+    Parameters weaker = p;
+    weaker.contrastThreshold *= kRetryContrastShare;
+    const int runs = survey.levels;
+    survey = surveyLevels(levels, finest, unit, all, textures, weaker, lo, hi, batch);
+    survey.levels += runs;
   }
   return survey;
 }
@@ -327,11 +376,11 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
     return plan;
   }
   const SlopeSurvey survey = surveySlopes(lf, p, lo, hi, batch);
-  Intervals occupied;
+  SlopeIntervals occupied;
   if (survey.levels == 0) {  // views too small to survey: every slope that could be
     const double reach = largestSlope(lf.T, lf.S, lf.V, lf.U) + 0.5 * unit;
     occupied = {{-reach, reach}};
-  } else if (survey.slopes.empty()) {
+  } else if (survey.slopes.empty() && survey.textures.empty()) {
     occupied = {{-kPaperRange, kPaperRange}};
   } else {
     // A surveyed slope m stands for features within the level's half spacing of it;
@@ -347,6 +396,9 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
                              (i + 1 < slopes.size() && slopes[i + 1] - slopes[i] <= 2 * reach);
       if (supported || slopes.size() == 1) spans.emplace_back(slopes[i] - reach, slopes[i] + reach);
     }
+    // A texture's interval holds its features' slopes; their extrema lie within half a
+    // slice spacing more.
+    for (const auto& [a, b] : survey.textures) spans.emplace_back(a - 0.5 * unit, b + 0.5 * unit);
     occupied = merged(spans);
   }
   // The grid starts at a finite bound the user gave, so that a slice lies on it.

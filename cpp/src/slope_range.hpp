@@ -9,6 +9,7 @@
 
 #include "light_field.hpp"
 #include "slope_plan.hpp"
+#include "slope_sweep.hpp"
 
 namespace liff {
 namespace detail {
@@ -44,20 +45,27 @@ struct SlopeSurvey {
   std::vector<double> slopes;
   double spacing = 0;
   int levels = 0;  // decimation levels run (0: views too small, nothing run)
+  /// Slope intervals of the plane sweep (sweepSlopes): textured structure, also where it
+  /// is too fine for the decimated levels.
+  SlopeIntervals textures;
 };
 
-/// Runs the pre-pass: LiFF's own detection (parameters `p`, contrast threshold halved)
-/// on the light field decimated 4 times (2 where that leaves views under 64 pixels;
+/// Runs the pre-pass: LiFF's own detection (parameters `p`) on the light field
+/// decimated 4 times (2 where that leaves views under 64 pixels;
 /// views under 32 pixels are not surveyed), then 8 and 16 times while views keep 40
 /// pixels; the coarsest level over all slopes within [lo, hi] and +-largestSlope, each
-/// finer one only around the slopes of the coherent features of the last; features
-/// below minCoherence are dropped as ghosts or noise.
+/// finer one only around the slopes of the coherent features of the last and the plane
+/// sweep's intervals (sweepSlopes, on the light field decimated half as much as the
+/// finest level: fine textures); features below minCoherence are dropped as ghosts or
+/// noise. When neither finds anything, the levels run again at half the contrast
+/// threshold (noise and decimation hide weak structure).
 SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, double hi,
                          int batch);
 
 /// The automatic plan: the slices on the grid o + k * sliceSpacing (k whole; o the finite
 /// bound where one is given, else 0) within half a spacing, plus the survey's
-/// uncertainty, of a surveyed slope, each searched, and their grid neighbours as
+/// uncertainty, of a surveyed slope or within half a spacing of a sweep interval, each
+/// searched, and their grid neighbours as
 /// unsearched guards; gaps between surveyed slopes are skipped. With numSlopes > 0,
 /// that many slices evenly from the first to the last slope the default would search,
 /// plus one unsearched guard beyond each end that is not a finite bound's own slice (so

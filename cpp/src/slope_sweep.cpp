@@ -1,0 +1,261 @@
+#include "slope_sweep.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace liff {
+namespace detail {
+namespace {
+
+/// Half the side of the window costs are summed over (3 x 3): small, so that a window
+/// on a thin occluder (a bar a few pixels wide) is mostly one layer.
+constexpr int kWindowRadius = 1;
+/// A pixel votes when its best slope costs less than this share of its mean cost: a
+/// texture costs its contrast at wrong slopes and only noise at its own; a flat region
+/// costs noise everywhere (ratio near 1); a window straddling an occlusion edge about
+/// half its mean at either layer's slope.
+constexpr float kConsistency = 0.4f;
+/// ...and when its window's own texture (summed absolute differences of neighbouring
+/// pixels) is this many times its best cost per view: otherwise the low best is that
+/// of a flat window (whose mean cost is raised by structure that crosses it at other
+/// slopes), not a match. Noise alone gives about 2 (two differences per pixel against
+/// one per view); 3 keeps textures only a little above the noise of one view.
+constexpr float kTextureToResidual = 3.f;
+/// Scale (pixels of the swept light field) of the DoG that says whether LiFF could find
+/// a feature at a voting pixel: the finest the sweep's resolution (usually half the
+/// light field's) shows well.
+constexpr double kDogSigma = 1.0;
+/// A slope counts when its votes cover this share of the view's pixels (a 9 x 9 patch of
+/// a 128 x 128 view): a layer large enough to hold features, not scattered edge votes.
+constexpr double kMinVoteShare = 0.005;
+
+// The view's values, with NaN where its weight (alpha) is under half the largest, so
+// that no window touching an invalid sample votes.
+cv::Mat viewValues(const LightField& lf, int t, int s) {
+  const cv::Mat values = lf.viewMat(t, s);
+  if (lf.weights.empty()) return values;
+  const cv::Mat weights = lf.weights.rowRange((t * lf.S + s) * lf.V, (t * lf.S + s + 1) * lf.V);
+  cv::Mat out(values.size(), CV_32F);
+  const float floor = 0.5f * lf.maxWeight;
+  for (int y = 0; y < lf.V; ++y)
+    for (int x = 0; x < lf.U; ++x) {
+      const float w = weights.at<float>(y, x);
+      out.at<float>(y, x) = w > floor ? values.at<float>(y, x) / w
+                                      : std::numeric_limits<float>::quiet_NaN();
+    }
+  return out;
+}
+
+// Per pixel of the reference view, over the slopes one chunk of the sweep covered: the
+// least window cost and its slope index, and the sum and number of window costs.
+struct Votes {
+  cv::Mat best, index, sum, count;  // CV_32F, CV_32S, CV_32F, CV_32S
+  explicit Votes(cv::Size size)
+      : best(size, CV_32F, cv::Scalar(std::numeric_limits<float>::infinity())),
+        index(size, CV_32S, cv::Scalar(-1)),
+        sum(size, CV_32F, cv::Scalar(0)),
+        count(size, CV_32S, cv::Scalar(0)) {}
+};
+
+// A view at `offset` view steps from the reference view along one axis (x for a view of
+// the reference's row, y for one of its column).
+// Buffers one chunk of the sweep reuses from slope to slope.
+struct Scratch {
+  cv::Mat cost, boxed;
+};
+
+struct Compared {
+  cv::Mat values;
+  int offset;
+  bool alongX;
+};
+
+// Where the compared view shows the reference's pixel x at slope m: x - m * offset =
+// x - i - f (i whole, f in [0, 1)), interpolated between samples x - i and x - i - 1.
+struct Sampling {
+  int i;
+  float f;
+};
+Sampling sampling(const Compared& c, double m) {
+  const double p = m * c.offset;
+  const int i = int(std::floor(p));
+  return {i, float(p - i)};
+}
+
+// One slope of the sweep: cost(x, y) = sum over the compared views of
+// |L_view(x - m d) - L_ref(x - f)| (d the view's offset from the reference along its
+// axis, f the fractional part of m d): the reference is interpolated as the view is, so
+// that the residual at the right slope is noise, not the blur of interpolating one side
+// only; summed over the window, where every view sees the pixel; folded into `votes`.
+void sweepSlope(const cv::Mat& reference, const std::vector<Compared>& views, double m, int k,
+                Votes& votes, Scratch& scratch) {
+  int x0 = 0, x1 = reference.cols, y0 = 0, y1 = reference.rows;
+  for (const Compared& c : views) {
+    const Sampling at = sampling(c, m);
+    int& lower = c.alongX ? x0 : y0;
+    int& upper = c.alongX ? x1 : y1;
+    // Samples x - i - 1 (and x - 1 of the reference) need x >= i + 1 (and x >= 1).
+    lower = std::max(lower, std::max(at.i, 0) + (at.f > 0 ? 1 : 0));
+    upper = std::min(upper, (c.alongX ? reference.cols : reference.rows) + std::min(at.i, 0));
+  }
+  const int window = 2 * kWindowRadius + 1;
+  if (x1 - x0 < window || y1 - y0 < window) return;
+  const cv::Rect roi(x0, y0, x1 - x0, y1 - y0);
+  // One pass per row and view: |(1 - f) (L_v - L_ref)(near) + f (L_v - L_ref)(far)|, the
+  // far samples one pixel further along the view's axis.
+  scratch.cost.create(reference.size(), CV_32F);  // kept from slope to slope
+  scratch.boxed.create(reference.size(), CV_32F);
+  cv::Mat cost = scratch.cost(cv::Rect(cv::Point(0, 0), roi.size()));
+  cv::Mat boxed = scratch.boxed(cv::Rect(cv::Point(0, 0), roi.size()));
+  cost.setTo(0);
+  for (const Compared& c : views) {
+    const Sampling at = sampling(c, m);
+    const float w0 = 1 - at.f, w1 = at.f;
+    for (int y = 0; y < roi.height; ++y) {
+      float* out = cost.ptr<float>(y);
+      const int row = roi.y + y;
+      const float* view = c.values.ptr<float>(c.alongX ? row : row - at.i) + roi.x - (c.alongX ? at.i : 0);
+      const float* ref = reference.ptr<float>(row) + roi.x;
+      if (at.f == 0) {
+        for (int x = 0; x < roi.width; ++x) out[x] += std::abs(view[x] - ref[x]);
+        continue;
+      }
+      // The far samples: the previous pixel of the row, or the previous row.
+      const float* viewFar = c.alongX ? view - 1 : c.values.ptr<float>(row - at.i - 1) + roi.x;
+      const float* refFar = c.alongX ? ref - 1 : reference.ptr<float>(row - 1) + roi.x;
+      for (int x = 0; x < roi.width; ++x)
+        out[x] += std::abs(w0 * (view[x] - ref[x]) + w1 * (viewFar[x] - refFar[x]));
+    }
+  }
+  cv::boxFilter(cost, boxed, -1, cv::Size(window, window), cv::Point(-1, -1), false);
+  // Only where the whole window lies inside the region every view sees.
+  for (int y = kWindowRadius; y < roi.height - kWindowRadius; ++y) {
+    const float* c = boxed.ptr<float>(y);
+    float* best = votes.best.ptr<float>(y + y0) + x0;
+    int* index = votes.index.ptr<int>(y + y0) + x0;
+    float* sum = votes.sum.ptr<float>(y + y0) + x0;
+    int* count = votes.count.ptr<int>(y + y0) + x0;
+    // Branch-free, so that it vectorises; a NaN (an invalid sample in the window)
+    // counts for nothing.
+    for (int x = kWindowRadius; x < roi.width - kWindowRadius; ++x) {
+      const bool valid = c[x] == c[x], better = c[x] < best[x];
+      sum[x] += valid ? c[x] : 0.f;
+      count[x] += valid ? 1 : 0;
+      best[x] = better ? c[x] : best[x];
+      index[x] = better ? k : index[x];
+    }
+  }
+}
+
+// The views compared with the reference (T / 2, S / 2): the two ends of its row and of
+// its column (those that are not the reference itself).
+std::vector<Compared> comparedViews(const LightField& lf) {
+  const int rt = lf.T / 2, rs = lf.S / 2;
+  std::vector<Compared> views;
+  if (rs > 0) views.push_back({viewValues(lf, rt, 0), -rs, true});
+  if (lf.S - 1 > rs) views.push_back({viewValues(lf, rt, lf.S - 1), lf.S - 1 - rs, true});
+  if (rt > 0) views.push_back({viewValues(lf, 0, rs), -rt, false});
+  if (lf.T - 1 > rt) views.push_back({viewValues(lf, lf.T - 1, rs), lf.T - 1 - rt, false});
+  return views;
+}
+
+// The sweep over slopes m_k = (first + k) g, k < n: chunks of slopes in parallel, each
+// with its own votes, merged after.
+Votes sweepAll(const cv::Mat& reference, const std::vector<Compared>& views, long first, int n,
+               double g) {
+  const int chunks = std::max(1, std::min(n, cv::getNumThreads()));
+  std::vector<Votes> partial;
+  for (int c = 0; c < chunks; ++c) partial.emplace_back(reference.size());
+  cv::parallel_for_(cv::Range(0, chunks), [&](const cv::Range& range) {
+    Scratch scratch;
+    for (int c = range.start; c < range.end; ++c)
+      for (int k = c * n / chunks; k < (c + 1) * n / chunks; ++k)
+        sweepSlope(reference, views, double(first + k) * g, k, partial[c], scratch);
+  });
+  Votes& all = partial[0];
+  for (int c = 1; c < chunks; ++c) {
+    all.sum += partial[c].sum;
+    all.count += partial[c].count;
+    const cv::Mat better = partial[c].best < all.best;
+    partial[c].best.copyTo(all.best, better);
+    partial[c].index.copyTo(all.index, better);
+  }
+  return all;
+}
+
+// Per pixel, the texture of its window: the sum of |dL/dx| + |dL/dy| (forward differences).
+cv::Mat windowTexture(const cv::Mat& reference) {
+  const int U = reference.cols, V = reference.rows;
+  cv::Mat dx(reference.size(), CV_32F, cv::Scalar(0)), dy(reference.size(), CV_32F, cv::Scalar(0));
+  cv::absdiff(reference.colRange(1, U), reference.colRange(0, U - 1), dx.colRange(0, U - 1));
+  cv::absdiff(reference.rowRange(1, V), reference.rowRange(0, V - 1), dy.rowRange(0, V - 1));
+  cv::Mat texture = dx + dy;
+  const int window = 2 * kWindowRadius + 1;
+  cv::boxFilter(texture, texture, -1, cv::Size(window, window), cv::Point(-1, -1), false);
+  return texture;
+}
+
+// Per pixel, what LiFF's detection could see there: the largest |DoG| within its window
+// at the finest scale the sweep's resolution shows (sigma kDogSigma and 2^(1/3) kDogSigma,
+// neighbouring layers of LiFF's scale space).
+cv::Mat windowResponse(const cv::Mat& reference) {
+  cv::Mat fine, coarse, response;
+  cv::GaussianBlur(reference, fine, cv::Size(), kDogSigma);
+  cv::GaussianBlur(reference, coarse, cv::Size(), kDogSigma * std::cbrt(2.0));
+  response = cv::abs(coarse - fine);
+  const int window = 2 * kWindowRadius + 1;
+  cv::dilate(response, response, cv::Mat::ones(window, window, CV_8U));
+  return response;
+}
+
+}  // namespace
+
+SlopeIntervals sweepSlopes(const LightField& lf, double lo, double hi, float minResponse) {
+  const std::vector<Compared> views = comparedViews(lf);
+  if (views.empty() || !(lo <= hi)) return {};
+  // Half a pixel of parallax at the farthest compared view between neighbouring slopes:
+  // a fine texture half-way between whole-pixel slopes matches neither.
+  int farthest = 0;
+  for (const Compared& c : views) farthest = std::max(farthest, std::abs(c.offset));
+  const double g = 0.5 / farthest;
+  // One slope beyond each end, whose votes do not count: a layer beyond the range would
+  // otherwise vote for the end slope, the best it is offered.
+  const long first = long(std::ceil(lo / g - 1e-9)) - 1, last = long(std::floor(hi / g + 1e-9)) + 1;
+  if (last - first < 2) return {};
+  const int n = int(last - first + 1);
+  const cv::Mat reference = viewValues(lf, lf.T / 2, lf.S / 2);
+  const Votes all = sweepAll(reference, views, first, n, g);
+  const cv::Mat texture = windowTexture(reference), response = windowResponse(reference);
+  // Votes of the pixels that saw at least half the slopes (their best is a choice among
+  // many), whose best is clearly better than their typical cost, whose window is
+  // textured well above that best's residual, and where LiFF could find a feature.
+  std::vector<int> votes(n, 0);
+  const float compared = float(views.size());
+  for (int y = 0; y < lf.V; ++y)
+    for (int x = 0; x < lf.U; ++x) {
+      const int count = all.count.at<int>(y, x);
+      if (count < std::max(3, n / 2)) continue;
+      const float best = all.best.at<float>(y, x);
+      if (best < kConsistency * all.sum.at<float>(y, x) / count &&
+          texture.at<float>(y, x) >= kTextureToResidual * best / compared &&
+          response.at<float>(y, x) >= minResponse)
+        ++votes[all.index.at<int>(y, x)];
+    }
+  // Each slope with enough votes stands for the slopes nearer to it than to its neighbours.
+  SlopeIntervals found;
+  for (int k = 1; k + 1 < n; ++k) {
+    if (votes[k] < kMinVoteShare * lf.V * lf.U) continue;
+    const double m = double(first + k) * g;
+    if (!found.empty() && found.back().second >= m - 0.5 * g - 1e-9)
+      found.back().second = m + 0.5 * g;
+    else
+      found.emplace_back(m - 0.5 * g, m + 0.5 * g);
+  }
+  return found;
+}
+
+}  // namespace detail
+}  // namespace liff

@@ -1,0 +1,124 @@
+// The plane sweep of the automatic slope range (slope_sweep.hpp): textured layers are
+// found at their slopes; flat, noisy or undetectable light fields vote for nothing.
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+#include <vector>
+
+#include "slope_sweep.hpp"
+
+namespace {
+
+using liff::detail::LightField;
+using liff::detail::SlopeIntervals;
+using liff::detail::sweepSlopes;
+
+constexpr int kSide = 96;
+/// LiFF's pre-test threshold with the default parameters (0.5 * 0.04 / 3).
+constexpr float kMinResponse = 0.5f * 0.04f / 3;
+
+// Smoothed uniform noise in [0, 1] (blur `sigma` px), reproducible from `seed`.
+cv::Mat texture(int side, double sigma, int seed) {
+  cv::Mat noise(side, side, CV_32F);
+  cv::RNG rng(seed);
+  rng.fill(noise, cv::RNG::UNIFORM, 0.f, 1.f);
+  cv::GaussianBlur(noise, noise, cv::Size(), sigma);
+  cv::normalize(noise, noise, 0, 1, cv::NORM_MINMAX);
+  return noise;
+}
+
+// T x S views of `slopes.size()` vertical strips of `scene`, strip i at slopes[i]: view
+// (t, s) shows at x what the centre view shows at x + m (s - S / 2) (HCI disparity sign).
+LightField stripes(int T, int S, const std::vector<double>& slopes, double sigma = 1.5) {
+  LightField lf;
+  lf.T = T;
+  lf.S = S;
+  lf.V = lf.U = kSide;
+  lf.views.create(T * S * kSide, kSide, CV_32F);
+  const cv::Mat scene = texture(kSide, sigma, 7);
+  for (int t = 0; t < T; ++t)
+    for (int s = 0; s < S; ++s) {
+      cv::Mat view = lf.views.rowRange((t * S + s) * kSide, (t * S + s + 1) * kSide);
+      for (size_t i = 0; i < slopes.size(); ++i) {
+        const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, slopes[i] * (s - S / 2), 0, 1,
+                               slopes[i] * (t - T / 2));
+        cv::Mat warped;
+        cv::warpAffine(scene, warped, shift, scene.size(),
+                       cv::INTER_CUBIC | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT);
+        const int x0 = int(i) * kSide / int(slopes.size()), x1 = int(i + 1) * kSide / int(slopes.size());
+        warped.colRange(x0, x1).copyTo(view.colRange(x0, x1));
+      }
+    }
+  return lf;
+}
+
+bool covered(const SlopeIntervals& found, double slope) {
+  for (const auto& [a, b] : found)
+    if (slope >= a - 1e-9 && slope <= b + 1e-9) return true;
+  return false;
+}
+
+TEST(SlopeSweep, FindsEachTexturedLayerAndNothingBetween) {
+  const std::vector<double> slopes{-3.0, 0.25, 2.5};
+  const SlopeIntervals found = sweepSlopes(stripes(5, 5, slopes), -8, 8, kMinResponse);
+  for (double m : slopes) EXPECT_TRUE(covered(found, m)) << "layer at " << m;
+  for (double m : {-1.5, 1.25, 5.0}) EXPECT_FALSE(covered(found, m)) << "nothing at " << m;
+  for (const auto& [a, b] : found) EXPECT_LE(b - a, 0.5 + 1e-9);  // a few half-pixel steps
+}
+
+TEST(SlopeSweep, FindsFineTexturesHalfWayBetweenWholePixelShifts) {
+  // 1.5 px of parallax per view step: whole-pixel shifts miss a 1 px texture by half a pixel.
+  const SlopeIntervals found = sweepSlopes(stripes(3, 3, {1.5}, 0.8), -6, 6, kMinResponse);
+  EXPECT_TRUE(covered(found, 1.5));
+}
+
+TEST(SlopeSweep, WorksOnARowOrAColumnOfViews) {
+  for (const auto& [T, S] : {std::pair{1, 7}, std::pair{7, 1}, std::pair{3, 6}}) {
+    const SlopeIntervals found = sweepSlopes(stripes(T, S, {-1.0}), -4, 4, kMinResponse);
+    EXPECT_TRUE(covered(found, -1.0)) << T << "x" << S;
+  }
+}
+
+TEST(SlopeSweep, FlatNoisyOrFaintLightFieldsVoteForNothing) {
+  LightField flat = stripes(5, 5, {0.0});
+  flat.views.setTo(0.5);
+  EXPECT_TRUE(sweepSlopes(flat, -8, 8, kMinResponse).empty());
+  LightField noise = flat;
+  noise.views = flat.views.clone();
+  cv::RNG rng(3);
+  cv::Mat n(noise.views.size(), CV_32F);
+  rng.fill(n, cv::RNG::NORMAL, 0.f, 0.01f);
+  noise.views += n;  // independent per view: consistent at no slope
+  EXPECT_TRUE(sweepSlopes(noise, -8, 8, kMinResponse).empty());
+  // A texture too faint for LiFF's contrast threshold is not structure LiFF can use.
+  LightField faint = stripes(5, 5, {1.0});
+  faint.views = 0.5 + 0.01 * (faint.views - 0.5);
+  EXPECT_TRUE(sweepSlopes(faint, -8, 8, kMinResponse).empty());
+  EXPECT_TRUE(covered(sweepSlopes(faint, -8, 8, 0.f), 1.0));  // contrastThreshold 0: found
+}
+
+TEST(SlopeSweep, OnlySweepsTheSlopesAsked) {
+  const SlopeIntervals found = sweepSlopes(stripes(5, 5, {-3.0, 2.5}), 0, 8, kMinResponse);
+  EXPECT_TRUE(covered(found, 2.5));
+  for (const auto& [a, b] : found) EXPECT_GE(a, -0.25 - 1e-9);
+  EXPECT_TRUE(sweepSlopes(stripes(5, 5, {1.0}), 2, 1, kMinResponse).empty());  // empty range
+  // A layer beyond the range votes for the slope nearest it, which is not taken as one.
+  EXPECT_TRUE(sweepSlopes(stripes(5, 5, {-3.0}), -2.3, 8, kMinResponse).empty());
+  EXPECT_TRUE(covered(sweepSlopes(stripes(5, 5, {-2.25}), -2.3, 8, kMinResponse), -2.25));
+}
+
+TEST(SlopeSweep, IgnoresSamplesWhoseAlphaIsLow) {
+  LightField lf = stripes(5, 5, {1.0});
+  lf.weights = cv::Mat(lf.views.size(), CV_32F, cv::Scalar(1));
+  // The left half of every view invalid (weight 0, premultiplied value 0): still found
+  // from the right half, and no NaN escapes into the result.
+  for (int v = 0; v < 25; ++v) {
+    lf.weights.rowRange(v * kSide, (v + 1) * kSide).colRange(0, kSide / 2).setTo(0);
+    lf.views.rowRange(v * kSide, (v + 1) * kSide).colRange(0, kSide / 2).setTo(0);
+  }
+  const SlopeIntervals found = sweepSlopes(lf, -8, 8, kMinResponse);
+  EXPECT_TRUE(covered(found, 1.0));
+  for (const auto& [a, b] : found) EXPECT_LE(b - a, 1.0);
+}
+
+}  // namespace

@@ -64,6 +64,23 @@ def test_thread_count_does_not_change_results(blob_lf, restore_threads, threads,
     np.testing.assert_array_equal(c1[1], cn[1])
 
 
+@pytest.mark.parametrize("threads", [2, 3])
+def test_thread_count_does_not_change_the_automatic_range_of_textured_layers(restore_threads,
+                                                                            threads):
+    """The slope survey's plane sweep (docs/SLOPES.md) sums costs over slopes in chunks
+    fixed in number, so its votes, the plan and the features do not depend on threads."""
+    from liff import synthetic
+    lf = synthetic.textured_layers((5, 5, 128, 128), (-2.0, 0.3, 2.1), seed=3).light_field
+    d = liff.LiFF.create()
+    liff.setNumThreads(1)
+    plan1, (k1, d1) = d.slopesFor(lf), d.detectAndCompute(lf)
+    liff.setNumThreads(threads)
+    plan_n, (kn, dn) = d.slopesFor(lf), d.detectAndCompute(lf)
+    assert plan1 == plan_n
+    assert_same_keypoints(k1, kn)
+    np.testing.assert_array_equal(d1, dn)
+
+
 def test_thread_count_with_mask_and_2d(texture_image, restore_threads):
     d = liff.LiFF.create()
     mask = np.zeros(texture_image.shape, np.uint8)

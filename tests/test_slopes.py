@@ -325,3 +325,49 @@ def test_low_contrast_layers_in_noise_are_found(noise, found):
     slopes = liff.keypoint_slopes(liff.LiFF.create().detect(scene.light_field))
     for layer in found:
         assert np.sum(np.abs(slopes - layer) <= 0.1) >= 5, layer
+
+
+def test_lone_survey_features_are_searched_when_they_are_all_there_is():
+    """One blob per layer at -3 and +3: no surveyed slope has another near it. Lone
+    features do not claim slices when others have support, but when none has (and the
+    sweep finds nothing) they are all there is (the plan was empty: no feature)."""
+    shape = (5, 5, 128, 128)
+    blobs = synthetic.random_blob_layers([-3.0, 3.0], shape, blobs_per_layer=1, seed=0, margin=20)
+    lf = synthetic.render_disks(blobs, shape, profile="gaussian")
+    d = liff.LiFF.create()
+    slopes = liff.keypoint_slopes(d.detect(lf))
+    for layer in (-3.0, 3.0):
+        assert np.sum(np.abs(slopes - layer) <= 0.1) >= 2, layer
+
+
+@pytest.mark.parametrize("bounds", [dict(firstSlope=2.6), dict(lastSlope=-5.0)])
+def test_half_automatic_bound_beyond_all_structure_searches_from_the_bound(bounds):
+    """Every layer lies beyond the finite bound: the plan is not empty but the paper's
+    range width from the bound, as a hand-set range there, and nothing is reported
+    beyond the bound."""
+    scene = synthetic.textured_layers((5, 5, 128, 128), (-3.0, 0.2, 2.5), seed=0)
+    d = liff.LiFF.create(**bounds)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", liff.SlopeRangeWarning)
+        slopes = liff.keypoint_slopes(d.detect(scene.light_field))
+    searched = d.getSearchedSlopes()
+    assert len(slopes) > 0 and len(searched) >= 3
+    if "firstSlope" in bounds:
+        assert searched[0] == pytest.approx(2.6) and searched[-1] == pytest.approx(4.6)
+        assert slopes.min() >= 2.6 - 1e-4
+    else:
+        assert searched[-1] == pytest.approx(-5.0) and searched[0] == pytest.approx(-7.0)
+        assert slopes.max() <= -5.0 + 1e-4
+
+
+def test_dark_outer_views_leave_the_sweep_the_inner_ones():
+    """Alpha 0 on the outer ring of 5x5 views (a lenslet capture's vignetted corners and
+    edges): the sweep compares the outermost usable views instead, and the layers at
+    -4.8 and +5.6 are still found as with a hand-set range."""
+    scene = synthetic.textured_layers((5, 5, 128, 128), (-4.8, 0.0, 5.6), seed=0)
+    alpha = np.zeros((5, 5, 128, 128), np.float32)
+    alpha[1:4, 1:4] = 1
+    lf = np.stack([scene.light_field.astype(np.float32), alpha], axis=-1)
+    slopes = liff.keypoint_slopes(liff.LiFF.create().detect(lf))
+    for layer in (-4.8, 0.0, 5.6):
+        assert np.sum(np.abs(slopes - layer) <= 0.1) >= 20, layer

@@ -349,6 +349,39 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
   return survey;
 }
 
+// The slopes the survey says hold structure (before any bound): around each surveyed
+// slope with support, and each plane-sweep interval. Views too small to survey: every
+// slope up to largestSlope; nothing found: the paper's [-1, 1].
+SlopeIntervals occupiedSlopes(const SlopeSurvey& survey, const LightField& lf) {
+  const double unit = sliceSpacing(lf.T, lf.S);
+  if (survey.levels == 0) {  // views too small to survey: every slope that could be
+    const double reach = largestSlope(lf.T, lf.S, lf.V, lf.U) + 0.5 * unit;
+    return {{-reach, reach}};
+  }
+  if (survey.slopes.empty() && survey.textures.empty()) return {{-kPaperRange, kPaperRange}};
+  // A surveyed slope m stands for features within the level's half spacing of it; the
+  // slices that could hold their extrema lie within half a slice spacing more.
+  const double reach = 0.5 * unit + kSurveyUncertainty * survey.spacing;
+  std::vector<double> slopes = survey.slopes;
+  std::sort(slopes.begin(), slopes.end());
+  SlopeIntervals spans;
+  for (size_t i = 0; i < slopes.size(); ++i) {
+    // A lone surveyed feature, with no other within twice the reach, does not claim
+    // slices by itself (one weak survey extremum is as often a fluke)...
+    const bool supported = (i > 0 && slopes[i] - slopes[i - 1] <= 2 * reach) ||
+                           (i + 1 < slopes.size() && slopes[i + 1] - slopes[i] <= 2 * reach);
+    if (supported) spans.emplace_back(slopes[i] - reach, slopes[i] + reach);
+  }
+  // ...unless no surveyed feature has support and the sweep found nothing: then the
+  // lone features are all there is.
+  if (spans.empty() && survey.textures.empty())
+    for (double m : slopes) spans.emplace_back(m - reach, m + reach);
+  // A texture's interval holds its features' slopes; their extrema lie within half a
+  // slice spacing more.
+  for (const auto& [a, b] : survey.textures) spans.emplace_back(a - 0.5 * unit, b + 0.5 * unit);
+  return merged(spans);
+}
+
 SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
   const double lo = p.firstSlope, hi = p.lastSlope;  // infinite for "automatic"
   const double unit = sliceSpacing(lf.T, lf.S);
@@ -376,34 +409,17 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
     return plan;
   }
   const SlopeSurvey survey = surveySlopes(lf, p, lo, hi, batch);
-  SlopeIntervals occupied;
-  if (survey.levels == 0) {  // views too small to survey: every slope that could be
-    const double reach = largestSlope(lf.T, lf.S, lf.V, lf.U) + 0.5 * unit;
-    occupied = {{-reach, reach}};
-  } else if (survey.slopes.empty() && survey.textures.empty()) {
-    occupied = {{-kPaperRange, kPaperRange}};
-  } else {
-    // A surveyed slope m stands for features within the level's half spacing of it;
-    // the slices that could hold their extrema lie within half a slice spacing more.
-    const double reach = 0.5 * unit + kSurveyUncertainty * survey.spacing;
-    std::vector<double> slopes = survey.slopes;
-    std::sort(slopes.begin(), slopes.end());
-    std::vector<std::pair<double, double>> spans;
-    for (size_t i = 0; i < slopes.size(); ++i) {
-      // A lone surveyed feature, with no other within twice the reach, does not claim
-      // slices by itself (one weak survey extremum is as often a fluke).
-      const bool supported = (i > 0 && slopes[i] - slopes[i - 1] <= 2 * reach) ||
-                             (i + 1 < slopes.size() && slopes[i + 1] - slopes[i] <= 2 * reach);
-      if (supported || slopes.size() == 1) spans.emplace_back(slopes[i] - reach, slopes[i] + reach);
-    }
-    // A texture's interval holds its features' slopes; their extrema lie within half a
-    // slice spacing more.
-    for (const auto& [a, b] : survey.textures) spans.emplace_back(a - 0.5 * unit, b + 0.5 * unit);
-    occupied = merged(spans);
-  }
+  const SlopeIntervals occupied = occupiedSlopes(survey, lf);
   // The grid starts at a finite bound the user gave, so that a slice lies on it.
   const double origin = gridOrigin(p);
-  const std::set<long> searched = positionsIn(occupied, unit, lo, hi, origin);
+  std::set<long> searched = positionsIn(occupied, unit, lo, hi, origin);
+  if (searched.empty() && (std::isfinite(lo) || std::isfinite(hi))) {
+    // Nothing within a finite bound of a half-automatic range (the structure lies beyond
+    // it): the paper's range width from the bound, as a hand-set range there would be,
+    // whose features beyond are reported at the bound (and warned of).
+    const double from = std::isfinite(lo) ? lo : hi - 2 * kPaperRange;
+    searched = positionsIn({{from, from + 2 * kPaperRange}}, unit, lo, hi, origin);
+  }
   if (p.numSlopes == 0 || searched.empty())
     return guardedPlan(searched, unit, lf.T, lf.S, origin, lo, hi);
   // A guard beyond each end, unless that end is a finite bound's own slice.

@@ -72,7 +72,8 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
 /// no feature is pinned there), when at least three slices remain searched.
 /// No slice lies beyond a finite bound [lo, hi]; a slice at it is searched, as the ends
 /// of a hand-set range are. When the survey finds nothing (a blank light field), the
-/// plan spans the paper's [-1, 1] within the bounds; views too small to survey (under
+/// plan spans the paper's [-1, 1] within the bounds; when nothing it finds lies within a
+/// finite bound, the paper's range width from that bound; views too small to survey (under
 /// 32 pixels) get every slope up to largestSlope (rounded outward to the grid). With
 /// two views along the longer axis (stereo pairs, 2 x 2), where slopes far from the
 /// truth focus textures as well as the truth, no survey: [-2, 2] (one spacing either

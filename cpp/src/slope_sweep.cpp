@@ -28,6 +28,8 @@ constexpr float kTextureToResidual = 3.f;
 /// a feature at a voting pixel: the finest the sweep's resolution (usually half the
 /// light field's) shows well.
 constexpr double kDogSigma = 1.0;
+/// Slopes are swept in this many chunks, whatever the number of threads.
+constexpr int kSweepChunks = 4;
 /// A slope counts when its votes cover this share of the view's pixels (a 9 x 9 patch of
 /// a 128 x 128 view): a layer large enough to hold features, not scattered edge votes.
 constexpr double kMinVoteShare = 0.005;
@@ -150,23 +152,43 @@ void sweepSlope(const cv::Mat& reference, const std::vector<Compared>& views, do
   }
 }
 
-// The views compared with the reference (T / 2, S / 2): the two ends of its row and of
-// its column (those that are not the reference itself).
+// Whether view (t, s) is mostly valid: its mean weight (alpha) at least half the largest.
+bool usable(const LightField& lf, int t, int s) {
+  if (lf.weights.empty()) return true;
+  const cv::Mat weights = lf.weights.rowRange((t * lf.S + s) * lf.V, (t * lf.S + s + 1) * lf.V);
+  return cv::mean(weights)[0] >= 0.5 * lf.maxWeight;
+}
+
+// The views compared with the reference (T / 2, S / 2): along its row and its column, on
+// each side the outermost usable view (the outer views of a lenslet capture may be dark).
 std::vector<Compared> comparedViews(const LightField& lf) {
   const int rt = lf.T / 2, rs = lf.S / 2;
   std::vector<Compared> views;
-  if (rs > 0) views.push_back({viewValues(lf, rt, 0), -rs, true});
-  if (lf.S - 1 > rs) views.push_back({viewValues(lf, rt, lf.S - 1), lf.S - 1 - rs, true});
-  if (rt > 0) views.push_back({viewValues(lf, 0, rs), -rt, false});
-  if (lf.T - 1 > rt) views.push_back({viewValues(lf, lf.T - 1, rs), lf.T - 1 - rt, false});
+  if (!usable(lf, rt, rs)) return views;
+  // From an end of the row (alongX) or column towards the reference, the first usable view.
+  auto outermost = [&](int end, int step, bool alongX) {
+    const int reference = alongX ? rs : rt;
+    for (int i = end; i != reference; i += step) {
+      const int t = alongX ? rt : i, s = alongX ? i : rs;
+      if (usable(lf, t, s)) {
+        views.push_back({viewValues(lf, t, s), i - reference, alongX});
+        return;
+      }
+    }
+  };
+  outermost(0, 1, true);
+  outermost(lf.S - 1, -1, true);
+  outermost(0, 1, false);
+  outermost(lf.T - 1, -1, false);
   return views;
 }
 
-// The sweep over slopes m_k = (first + k) g, k < n: chunks of slopes in parallel, each
-// with its own votes, merged after.
+// The sweep over slopes m_k = (first + k) g, k < n: kSweepChunks chunks of slopes in
+// parallel, each with its own votes, merged after in chunk order, so that the sums (and
+// so the votes) are the same whatever the number of threads.
 Votes sweepAll(const cv::Mat& reference, const std::vector<Compared>& views, long first, int n,
                double g) {
-  const int chunks = std::max(1, std::min(n, cv::getNumThreads()));
+  const int chunks = std::max(1, std::min(n, kSweepChunks));
   std::vector<Votes> partial;
   for (int c = 0; c < chunks; ++c) partial.emplace_back(reference.size());
   cv::parallel_for_(cv::Range(0, chunks), [&](const cv::Range& range) {

@@ -24,7 +24,9 @@ using SlopeIntervals = std::vector<std::pair<double, double>>;
 /// residual (a flat region never votes), and its |DoG| reaches `minResponse` (LiFF's
 /// pre-test threshold: structure LiFF could find). Slopes whose votes cover at least
 /// kMinVoteShare of the view are returned, each as [m - g / 2, m + g / 2], merged where
-/// they touch. `lf` may be decimated: slopes are in its own pixels per view step.
+/// they touch; one slope beyond each end is swept, its votes not counted (a layer beyond
+/// the range would vote for the end slope). Outer views whose mean weight (alpha) is
+/// under half the largest are passed over for the outermost usable ones. `lf` may be decimated: slopes are in its own pixels per view step.
 SlopeIntervals sweepSlopes(const LightField& lf, double lo, double hi, float minResponse);
 
 }  // namespace detail

@@ -155,8 +155,8 @@ class LiFF(_core.LiFF):
         ``slopesFor(T, S)``: for a light field of T x S views with a finite slope range
         (raises ValueError with an automatic one, whose slopes depend on the content).
         ``slopesFor(lf)``: those detection would build for the light field ``lf``; with
-        an automatic range this runs its survey (docs/SLOPES.md), a few percent of a
-        detection. Neither changes :meth:`getSlicesUsed` and :meth:`getSearchedSlopes`,
+        an automatic range this runs its survey (docs/SLOPES.md), 13-44% of a detection
+        in benchmarks/slopes.py (the most on small light fields). Neither changes :meth:`getSlicesUsed` and :meth:`getSearchedSlopes`,
         which describe the last detect, detectAndCompute or compute call.
 
         Raises

@@ -371,3 +371,19 @@ def test_dark_outer_views_leave_the_sweep_the_inner_ones():
     slopes = liff.keypoint_slopes(liff.LiFF.create().detect(lf))
     for layer in (-4.8, 0.0, 5.6):
         assert np.sum(np.abs(slopes - layer) <= 0.1) >= 20, layer
+
+
+def test_a_survey_that_finds_nothing_in_a_light_field_with_content_warns():
+    """Alpha 0 on every other row (each survey patch half invalid): the survey finds
+    no structure and the paper's [-1, 1] is searched; that is said, not silent. A
+    constant light field (nothing to find) and an ordinary one do not warn."""
+    scene = synthetic.textured_layers((5, 5, 128, 128), (-5.6, 0.0, 6.4), seed=0)
+    lf = scene.light_field.astype(np.float32)
+    alpha = np.ones(lf.shape, np.float32)
+    alpha[..., ::2, :] = 0
+    with pytest.warns(liff.SlopeRangeWarning, match=r"survey found no structure.*\[-1, 1\]"):
+        liff.LiFF.create().detect(np.stack([lf, alpha], axis=-1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        liff.LiFF.create().detect(np.full((5, 5, 128, 128), 0.3, np.float32))
+        liff.LiFF.create().detect(lf)

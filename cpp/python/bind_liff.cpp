@@ -159,6 +159,11 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
       "The slopes (px per view step) of the features the automatic range's survey keeps for "
       "this light field, whatever this detector's own range (docs/SLOPES.md).");
   cls.def(
+      "_survey_found_nothing",
+      [](const PyLiFF& s) { return detail::lastSurveyFoundNothing(*s.impl); },
+      "Whether the last call's automatic range found no structure in its survey and "
+      "searched the paper's [-1, 1] (docs/SLOPES.md).");
+  cls.def(
       "getSlicesUsed", [](const PyLiFF& s) { return s.impl->getSlicesUsed(); },
       "Slopes of every focal slice the last call built, increasing (list of float).");
   cls.def(

@@ -124,6 +124,10 @@ class LiFF_Impl : public LiFF {
     std::lock_guard<std::mutex> lock(lastMutex_);
     return lastSearched_;
   }
+  bool lastSurveyFoundNothing() const {
+    std::lock_guard<std::mutex> lock(lastMutex_);
+    return lastSurveyFoundNothing_;
+  }
 
   // --- Feature2D ----------------------------------------------------------------------
   int descriptorSize() const override { return detail::kDescriptorSize; }
@@ -180,6 +184,7 @@ class LiFF_Impl : public LiFF {
   double memoryLimitMB_ = 0;
   mutable std::mutex lastMutex_;  // guards the last call's slices (calls may be concurrent)
   std::vector<double> lastSlices_, lastSearched_;
+  bool lastSurveyFoundNothing_ = false;
 };
 
 SlopePlan LiFF_Impl::planSlices(const Parameters& parameters, const LightField& lf, int batch,
@@ -207,6 +212,7 @@ void LiFF_Impl::remember(const SlopePlan& plan) {
   std::lock_guard<std::mutex> lock(lastMutex_);
   lastSlices_ = plan.slopes;
   lastSearched_ = searched;
+  lastSurveyFoundNothing_ = plan.surveyFoundNothing;
 }
 
 detail::MemoryEstimate LiFF_Impl::convert(const Parameters& parameters, const cv::Mat& input,
@@ -289,6 +295,11 @@ cv::Ptr<LiFF> LiFF::create(int nfeatures, int nOctaveLayers, double contrastThre
   parameters.descriptorType = descriptorType;
   parameters.rootSift = rootSift;
   return create(parameters);
+}
+
+bool detail::lastSurveyFoundNothing(const LiFF& detector) {
+  const auto* impl = dynamic_cast<const LiFF_Impl*>(&detector);
+  return impl != nullptr && impl->lastSurveyFoundNothing();
 }
 
 }  // namespace liff

@@ -25,6 +25,8 @@ struct SlopePlan {
   std::vector<bool> searched;
   double origin = 0;
   double step = 0;  // 0 for a single slice
+  /// An automatic range whose survey found nothing: the paper's [-1, 1] (cut by a bound).
+  bool surveyFoundNothing = false;
   /// Interpolation blur (view pixels^2, along x and y) every slice is topped up to: the
   /// largest any slice of the plan's grid carries (see interpolationVariance), so that
   /// all slices are equally sharp whichever of them a call builds.

@@ -420,12 +420,17 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
     const double from = std::isfinite(lo) ? lo : hi - 2 * kPaperRange;
     searched = positionsIn({{from, from + 2 * kPaperRange}}, unit, lo, hi, origin);
   }
-  if (p.numSlopes == 0 || searched.empty())
-    return guardedPlan(searched, unit, lf.T, lf.S, origin, lo, hi);
-  // A guard beyond each end, unless that end is a finite bound's own slice.
-  const double a = origin + double(*searched.begin()) * unit;
-  const double b = origin + double(*searched.rbegin()) * unit;
-  return countedPlan(p.numSlopes, a, b, !(a <= lo + 1e-9), !(b >= hi - 1e-9), unit, lf.T, lf.S);
+  SlopePlan plan;
+  if (p.numSlopes == 0 || searched.empty()) {
+    plan = guardedPlan(searched, unit, lf.T, lf.S, origin, lo, hi);
+  } else {
+    // A guard beyond each end, unless that end is a finite bound's own slice.
+    const double a = origin + double(*searched.begin()) * unit;
+    const double b = origin + double(*searched.rbegin()) * unit;
+    plan = countedPlan(p.numSlopes, a, b, !(a <= lo + 1e-9), !(b >= hi - 1e-9), unit, lf.T, lf.S);
+  }
+  plan.surveyFoundNothing = survey.levels > 0 && survey.slopes.empty() && survey.textures.empty();
+  return plan;
 }
 
 SlopePlan describingPlan(int T, int S, const std::vector<double>& slopes, double origin) {

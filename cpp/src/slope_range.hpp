@@ -2,6 +2,7 @@
 // pixels by a coarse-to-fine pre-pass (docs/SLOPES.md has the method and its maths).
 #pragma once
 
+#include <liff/liff.hpp>
 #include <liff/parameters.hpp>
 #include <opencv2/core.hpp>
 #include <utility>
@@ -80,6 +81,11 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
 /// side of 0) cut by the bound given, or two spacings from a bound beyond it, as a
 /// hand-set range.
 SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch);
+
+/// Whether `detector`'s last completed call had an automatic range whose survey found
+/// nothing (SlopePlan::surveyFoundNothing): it searched the paper's [-1, 1]. For the
+/// Python warning; false for other detectors.
+bool lastSurveyFoundNothing(const LiFF& detector);
 
 /// compute() with an automatic range and several views: the slices of the grid
 /// origin + k * sliceSpacing (origin: the finite bound of a half-automatic range, else

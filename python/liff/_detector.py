@@ -234,12 +234,14 @@ class LiFF(_core.LiFF):
         return rows_to_keypoints(rows), (desc if len(rows) else None)
 
     def _check_range_ends(self, lf: np.ndarray, rows: np.ndarray, masked: bool = False) -> None:
-        """The range warnings: :meth:`_check_pinned_ends`, and with an automatic range
-        and no feature, that slopes beyond the largest one considered, R, are not
-        searched (docs/SLOPES.md, "Bound"): where R is small (under SMALL_REACH), the
-        views are large enough to survey, no mask was given and the light field is not
-        constant."""
-        if not len(rows) and math.isinf(self.getFirstSlope()) and math.isinf(self.getLastSlope()):
+        """The range warnings: :meth:`_check_pinned_ends`; with an automatic range and no
+        feature, that slopes beyond the largest one considered, R, are not searched
+        (docs/SLOPES.md, "Bound"): where R is small (under SMALL_REACH), the views are
+        large enough to survey, no mask was given and the light field is not constant;
+        and with an automatic range whose survey found nothing in a light field that is
+        not constant, that the paper's [-1, 1] was searched ("Nothing found")."""
+        automatic = math.isinf(self.getFirstSlope()) and math.isinf(self.getLastSlope())
+        if not len(rows) and automatic:
             if lf.ndim < 4:  # one view: one slice, no range
                 return
             T, S, V, U = lf.shape[:4]
@@ -250,6 +252,18 @@ class LiFF(_core.LiFF):
                               f"for {T}x{S} views of {U}x{V}); if the scene's slopes reach "
                               "beyond, set firstSlope and lastSlope",
                               SlopeRangeWarning, stacklevel=3)
+                return
+        if automatic and self._survey_found_nothing() and np.ptp(lf) > 0:
+            # A light field that is not constant, in which the survey found no structure
+            # (noise, low contrast, mostly invalid samples): the paper's range was searched.
+            warnings.warn(f"the automatic slope range's survey found no structure in this "
+                          f"light field (noise, low contrast or mostly invalid alpha?), so "
+                          f"the paper's [-1, 1] was searched ({len(rows)} features); "
+                          "features at slopes beyond are missed or reported at its ends: if "
+                          "the scene's slopes reach beyond, set firstSlope and lastSlope",
+                          SlopeRangeWarning, stacklevel=3)
+            return
+        if not len(rows) and automatic:
             return
         self._check_pinned_ends(lf, rows)
 

@@ -89,7 +89,8 @@ class CV_EXPORTS_W LiFF : public cv::Feature2D {
   virtual std::vector<double> slopesFor(int T, int S) const = 0;
   /// The slopes of the focal slices detection would build for `lightField` (as
   /// detectAndCompute takes it): for an automatic range this runs its survey
-  /// (docs/SLOPES.md), which costs a few percent of a detection.
+  /// (docs/SLOPES.md), which costs 13-44% of a detection in benchmarks/slopes.py (the
+  /// most on small light fields).
   virtual std::vector<double> slopesFor(cv::InputArray lightField) = 0;
 
   /// The slopes of every focal slice the last completed detect/detectAndCompute/

@@ -17,10 +17,10 @@ from ._warnings import SlopeRangeWarning
 from .keypoint_rows import SLOPE_SCALE, KeyPoints, keypoints_to_rows, rows_to_keypoints
 
 RANGE_END_SHARE = 0.05
-#: Below this largest automatic slope (pixels per view step), finding no feature is
-#: worth a warning: scenes often reach beyond it (camera arrays, gantries).
-SMALL_REACH = 3.0
 """A hand-set slope range warns when more than this share of features sit at its ends."""
+SMALL_REACH = 3.0
+"""Below this largest automatic slope (pixels per view step), finding no feature is
+worth a warning: scenes often reach beyond it (camera arrays, gantries)."""
 
 
 class Parameter(NamedTuple):
@@ -156,8 +156,9 @@ class LiFF(_core.LiFF):
         (raises ValueError with an automatic one, whose slopes depend on the content).
         ``slopesFor(lf)``: those detection would build for the light field ``lf``; with
         an automatic range this runs its survey (docs/SLOPES.md), 13-44% of a detection
-        in benchmarks/slopes.py (the most on small light fields). Neither changes :meth:`getSlicesUsed` and :meth:`getSearchedSlopes`,
-        which describe the last detect, detectAndCompute or compute call.
+        in benchmarks/slopes.py (the most on small light fields). Neither changes
+        :meth:`getSlicesUsed` and :meth:`getSearchedSlopes`, which describe the last
+        detect, detectAndCompute or compute call.
 
         Raises
         ------
@@ -240,10 +241,12 @@ class LiFF(_core.LiFF):
         large enough to survey, no mask was given and the light field is not constant;
         and with an automatic range whose survey found nothing in a light field that is
         not constant, that the paper's [-1, 1] was searched ("Nothing found")."""
-        automatic = math.isinf(self.getFirstSlope()) and math.isinf(self.getLastSlope())
-        if not len(rows) and automatic:
-            if lf.ndim < 4:  # one view: one slice, no range
-                return
+        if not (math.isinf(self.getFirstSlope()) and math.isinf(self.getLastSlope())):
+            self._check_pinned_ends(lf, rows)  # a finite end: features pinned there?
+            return
+        if lf.ndim < 4:  # one view: one slice, no range
+            return
+        if not len(rows):
             T, S, V, U = lf.shape[:4]
             reach = _core._automatic_reach(T, S, V, U)  # NaN: no survey, nothing to warn of
             if reach < SMALL_REACH and min(V, U) >= 64 and not masked and np.ptp(lf) > 0:
@@ -253,7 +256,7 @@ class LiFF(_core.LiFF):
                               "beyond, set firstSlope and lastSlope",
                               SlopeRangeWarning, stacklevel=3)
                 return
-        if automatic and self._survey_found_nothing() and np.ptp(lf) > 0:
+        if self._survey_found_nothing() and np.ptp(lf) > 0:
             # A light field that is not constant, in which the survey found no structure
             # (noise, low contrast, mostly invalid samples): the paper's range was searched.
             warnings.warn(f"the automatic slope range's survey found no structure in this "
@@ -262,10 +265,6 @@ class LiFF(_core.LiFF):
                           "features at slopes beyond are missed or reported at its ends: if "
                           "the scene's slopes reach beyond, set firstSlope and lastSlope",
                           SlopeRangeWarning, stacklevel=3)
-            return
-        if not len(rows) and automatic:
-            return
-        self._check_pinned_ends(lf, rows)
 
     def _check_pinned_ends(self, lf: np.ndarray, rows: np.ndarray) -> None:
         """Warns (SlopeRangeWarning) when more than RANGE_END_SHARE of the features sit

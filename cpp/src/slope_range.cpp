@@ -6,6 +6,7 @@
 #include <liff/liff.hpp>
 #include <map>
 #include <set>
+#include <tuple>
 
 #include "extrema.hpp"
 #include "focal_stack.hpp"
@@ -144,6 +145,12 @@ SlopeIntervals textureSlopes(const LightField& small, int factor, double lo, dou
     b *= factor;
   }
   return found;
+}
+
+// A half-automatic range's slopes when nothing it would search lies within its finite
+// bound: `width` from the bound inward, [lo, lo + width] or [hi - width, hi].
+std::pair<double, double> fromBound(double lo, double hi, double width) {
+  return std::isfinite(lo) ? std::make_pair(lo, lo + width) : std::make_pair(hi - width, hi);
 }
 
 // numSlopes = n slices evenly from slope a to b (the first and last the default plan
@@ -400,10 +407,8 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
     Parameters narrow = p;
     narrow.firstSlope = std::max(-unit, lo);
     narrow.lastSlope = std::min(unit, hi);
-    if (!(narrow.firstSlope < narrow.lastSlope)) {  // the bound given lies beyond it
-      narrow.firstSlope = std::isfinite(lo) ? lo : hi - 2 * unit;
-      narrow.lastSlope = std::isfinite(lo) ? lo + 2 * unit : hi;
-    }
+    if (!(narrow.firstSlope < narrow.lastSlope))  // the bound given lies beyond it
+      std::tie(narrow.firstSlope, narrow.lastSlope) = fromBound(lo, hi, 2 * unit);
     SlopePlan plan = uniformPlan(narrow, lf.T, lf.S);
     setBlurTarget(plan, lf.T, lf.S, false);
     return plan;
@@ -417,8 +422,7 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
     // Nothing within a finite bound of a half-automatic range (the structure lies beyond
     // it): the paper's range width from the bound, as a hand-set range there would be,
     // whose features beyond are reported at the bound (and warned of).
-    const double from = std::isfinite(lo) ? lo : hi - 2 * kPaperRange;
-    searched = positionsIn({{from, from + 2 * kPaperRange}}, unit, lo, hi, origin);
+    searched = positionsIn({fromBound(lo, hi, 2 * kPaperRange)}, unit, lo, hi, origin);
   }
   SlopePlan plan;
   if (p.numSlopes == 0 || searched.empty()) {

@@ -14,8 +14,10 @@ scale-sensitive matching (docs/METRIC.md).
    refinement's own first-order standard deviation of |t| (the accuracy that its
    estimated slope and position noise imply); and the slope noise itself, measured
    against depths triangulated from the two captures with the true pose.
-3. Metric SfM: COLMAP (liff.colmap; its default mapper, the permissive one where the
-   default makes no model; intrinsics fixed to the calibration) on all poses of each
+3. Metric SfM: COLMAP (liff.colmap; every pair matched by its metric pose,
+   liff.colmap.match_by_pose, as liff sfm --camera does, or with --colmap-matching by
+   COLMAP's own matching and verification; its default mapper, the permissive one where
+   the default makes no model; intrinsics fixed to the calibration) on all poses of each
    capture, scaled to metres with liff.colmap.metric_scale; the scale error is |s - 1|, s the
    summed distances between the scaled model's camera centres over the true ones.
 4. Scale-sensitive matching: putative matches (ratio 0.8) of consecutive poses with and
@@ -23,7 +25,8 @@ scale-sensitive matching (docs/METRIC.md).
    if, triangulated with the true pose, it reprojects within 2 px in both captures and
    both slopes agree with its depth within 0.3 px per view step.
 
-Usage:  python benchmarks/metric.py [--quick] [--scenes N] [--scene DIR]
+Usage:  python benchmarks/metric.py [--quick] [--scenes N] [--scene DIR] [--automatic]
+        [--colmap-matching]
 """
 
 from __future__ import annotations
@@ -60,6 +63,9 @@ QUICK = dict(scenes=1, poses=3, views=((5, 5),), size=(180, 240))
 # frustum range, captures from their known depths; with --automatic, the detector's own
 # automatic range (docs/SLOPES.md).
 AUTOMATIC = False
+# Metric SfM's matching: "pose" (liff.colmap.match_by_pose, as liff sfm --camera does) or
+# "colmap" (COLMAP's exhaustive matching and verification, --colmap-matching).
+MATCHING = "pose"
 
 
 def hci_slopes(scene) -> dict:
@@ -72,13 +78,15 @@ def hci_slopes(scene) -> dict:
 
 
 def capture_slopes(capture: captures.Capture) -> dict:
-    """The captures' slopes span [-1, 1] from the back wall to the nearest object
-    (make_capture's slope_range); a quarter of the span is added on each side, as
-    the arc's poses see the wall from a little farther and the nearest box a little
-    nearer, with 21 slopes (8 per unit slope)."""
+    """The captures' true slopes (Capture.slope_range, from their depth maps: about
+    [-1.26, 1.22] from the back wall to the nearest box, up to 2.2 on the fence seen
+    obliquely from the arc's ends) with a quarter slope of margin on each side, 8
+    slopes per unit slope."""
     if AUTOMATIC:
         return {}
-    return dict(firstSlope=-1.25, lastSlope=1.25, numSlopes=21)
+    lo, hi = capture.slope_range()
+    lo, hi = lo - 0.25, hi + 0.25
+    return dict(firstSlope=lo, lastSlope=hi, numSlopes=int(np.ceil(8 * (hi - lo))) + 1)
 # ---------------------------------------------------------------------------------------
 
 
@@ -239,7 +247,10 @@ def metric_sfm(capture, feats, camera, workdir: str) -> dict:
     database, image_dir = os.path.join(workdir, "database.db"), os.path.join(workdir, "images")
     colmap.write_database(database, image_dir, images, focal=camera.focal_length,
                           principal_point=camera.principal_point)
-    colmap.match(database)
+    if MATCHING == "pose":
+        colmap.match_by_pose(database, images, camera)
+    else:
+        colmap.match(database)
     for mapper in ("default", "permissive"):  # permissive when the default makes no model
         # the calibrated camera's intrinsics are known and kept (as liff sfm --camera does)
         result = colmap.reconstruct(database, image_dir, os.path.join(workdir, f"sparse-{mapper}"),
@@ -376,9 +387,12 @@ def main(argv=None) -> int:
     parser.add_argument("--skip-hci", action="store_true")
     parser.add_argument("--automatic", action="store_true",
                         help="the detector's automatic slope range instead of the known ones")
+    parser.add_argument("--colmap-matching", action="store_true",
+                        help="metric SfM on COLMAP's own matching instead of liff.colmap.match_by_pose")
     args = parser.parse_args(argv)
-    global AUTOMATIC
+    global AUTOMATIC, MATCHING
     AUTOMATIC = args.automatic
+    MATCHING = "colmap" if args.colmap_matching else "pose"
     import pycolmap
 
     pycolmap.logging.minloglevel = 2
@@ -398,6 +412,7 @@ def main(argv=None) -> int:
               f"{setup['size'][1]}x{setup['size'][0]} px on a 40-degree arc; contrastThreshold "
               f"{CONTRAST_THRESHOLD}, low contrast {CONTRAST}; slope ranges "
               f"{'automatic' if AUTOMATIC else 'known (hci_slopes, capture_slopes)'}; "
+              f"SfM matching {'by pose (liff.colmap.match_by_pose)' if MATCHING == 'pose' else 'COLMAP'}; "
               f"{time.time() - start:.0f} s")
     print(header + "\n\n" + report(hci, results))
     return 0

@@ -86,6 +86,28 @@ def test_slope_range_sets_far_and_near_slopes():
     assert cap.baseline == pytest.approx(2 / (1 / 3.6 - 1 / 8.7) / 300.0)
 
 
+def test_depth_map_and_slope_range_are_the_scene_geometry():
+    # A wall facing the camera at depth 6 filling the view: its depth everywhere, its
+    # slope the range; a smaller panel in front at depth 4 adds the near end.
+    pose = captures.Pose(np.eye(3), np.zeros(3))
+    flat = np.full((16, 16), 0.5, np.float32)
+    wall = captures.Patch(np.array([0, 0, 6.0]), np.array([9.0, 0, 0]), np.array([0, 9.0, 0]), flat)
+    panel = captures.Patch(np.array([0, 0, 4.0]), np.array([0.5, 0, 0]), np.array([0, 0.5, 0]), flat)
+    cap = captures.make_capture(n_poses=1, views=(3, 3), size=(40, 50), focal=50.0, supersample=1,
+                                patches=[wall, panel], poses=[pose])
+    depth = cap.depth_map(0)
+    assert depth.shape == (40, 50) and depth.dtype == np.float32
+    assert depth[0, 0] == pytest.approx(6.0) and depth[20, 25] == pytest.approx(4.0)
+    assert cap.slope_range() == pytest.approx((cap.slope_at_depth(6.0), cap.slope_at_depth(4.0)))
+    # nothing in view: inf depths and no range
+    behind = captures.Patch(np.array([0, 0, -5.0]), panel.axis_u, panel.axis_v, flat)
+    empty = captures.make_capture(n_poses=1, views=(1, 1), size=(16, 16), patches=[behind],
+                                  poses=[pose])
+    assert np.isinf(empty.depth_map(0)).all()
+    with pytest.raises(ValueError, match="expected a capture of a scene"):
+        empty.slope_range()
+
+
 def test_liff_measures_the_rendered_slope():
     # A textured wall at one depth: LiFF's keypoint slopes must come out at its slope.
     pose = captures.Pose(np.eye(3), np.zeros(3))

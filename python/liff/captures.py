@@ -119,6 +119,24 @@ class Capture:
         """Slope (pixels per view step, liff's sign) of points at ``depth`` (world units)."""
         return self.intrinsics.focal * self.baseline * (1.0 / np.asarray(depth) - 1.0 / self.focus_depth)
 
+    def depth_map(self, index: int) -> np.ndarray:
+        """Ground-truth depth of light field ``index``'s centre view at its pixel centres
+        (world units along the optical axis, ``inf`` where no patch is hit), (V, U)
+        float32: the nearest patch along each pixel's central ray."""
+        k, pose = self.intrinsics, self.poses[index]
+        x = (np.arange(k.width) - k.cx) / k.focal
+        y = (np.arange(k.height) - k.cy) / k.focal
+        return _cast(self.patches, pose.rotation, pose.centre, x, y, 0.0)[1]
+
+    def slope_range(self) -> Tuple[float, float]:
+        """The smallest and largest true slope (pixels per view step) in the centre views
+        of all poses, from :meth:`depth_map`: the range a detector must search."""
+        slopes = [self.slope_at_depth(d[np.isfinite(d)]) for d in map(self.depth_map, range(len(self.poses)))]
+        slopes = np.concatenate([s.ravel() for s in slopes])
+        if slopes.size == 0:
+            raise ValueError("no patch is seen from any pose; expected a capture of a scene")
+        return float(slopes.min()), float(slopes.max())
+
     def centre_views(self) -> List[np.ndarray]:
         """The centre view ``L[T // 2, S // 2]`` of every light field, (V, U) float32."""
         return [lf[lf.shape[0] // 2, lf.shape[1] // 2] for lf in self.light_fields]
@@ -286,15 +304,16 @@ def render_light_field(
             x = ((np.arange(U)[:, None] + samples).ravel() - cx) / intrinsics.focal
             y = ((np.arange(V)[:, None] + samples).ravel() - cy) / intrinsics.focal
             centre = pose.centre + pose.rotation.T @ offset
-            image = _cast(patches, pose.rotation, centre, x, y, background)
+            image = _cast(patches, pose.rotation, centre, x, y, background)[0]
             lf[t, s] = image.reshape(V, n, U, n).mean(axis=(1, 3))
     return lf
 
 
 def _cast(patches: Sequence[Patch], rotation: np.ndarray, centre: np.ndarray,
           x: np.ndarray, y: np.ndarray, background: float) -> np.ndarray:
-    """Intensity along the rays (x[j], y[i], 1) of a camera (world-to-camera rotation,
-    centre in world), nearest patch first; shape (len(y), len(x)), float32."""
+    """Intensity and depth along the rays (x[j], y[i], 1) of a camera (world-to-camera
+    rotation, centre in world), nearest patch first; each shape (len(y), len(x)),
+    float32 (depth ``inf`` where no patch is hit)."""
     shape = (len(y), len(x))
     depth = np.full(shape, np.inf, np.float32)
     which = np.full(shape, -1, np.int32)  # nearest patch so far
@@ -323,7 +342,7 @@ def _cast(patches: Sequence[Patch], rotation: np.ndarray, centre: np.ndarray,
     for i in np.unique(which[which >= 0]):
         sel = which == i
         out[sel] = _sample(patches[i].texture, tex_col[sel], tex_row[sel])
-    return out
+    return out, depth
 
 
 def _sample(texture: np.ndarray, cols: np.ndarray, rows: np.ndarray, width: int = 1024) -> np.ndarray:

@@ -3,8 +3,9 @@
 A calibrated light field gives every feature a 3-D position (:class:`LightFieldCamera`),
 so two captures of a scene fix their relative pose *with absolute scale*, which no pair
 of 2-D images does. :func:`estimate_relative_pose` matches the features, finds a rigid
-motion robustly by RANSAC on the 3-D-3-D matches (COLMAP's LO-RANSAC through pycolmap),
-then refines it where the noise lives: in each capture's observations (x, y, slope).
+motion robustly by RANSAC (hypotheses from 3-D-3-D matches, scored in the observations;
+:func:`observation_ransac`), then refines it where the noise lives: in each capture's
+observations (x, y, slope).
 The 3-D points themselves are poor measurements: depth noise grows as Z^2 / (f b) times
 the slope noise, so far points dominate a fit in 3-D (a plain Umeyama fit) and the
 inverse of a noisy slope is biased. The refinement is a two-capture bundle adjustment
@@ -33,6 +34,15 @@ CHI2_INLIER = 16.27
 MIN_MATCHES = 3
 #: rounds of guided matching and refinement after the first pose
 GUIDED_ROUNDS = 2
+#: a-priori noise of a feature's position (pixels) and slope (pixels per view step) that
+#: scores RANSAC's hypotheses, before the refinement estimates the noise itself
+RANSAC_SIGMA = (0.5, 0.05)
+#: hypotheses scored per batch, at most in all, and local-optimisation rounds
+RANSAC_BATCH = 256
+RANSAC_MAX_HYPOTHESES = 4096
+RANSAC_LOCAL_ROUNDS = 5
+#: best hypotheses that get local optimisation
+RANSAC_LOCAL_POOL = 16
 #: lower bounds of the estimated noise: positions (pixels), slopes (pixels per view step)
 SIGMA_FLOOR = (1e-3, 1e-4)
 #: median of log |z| for a standard normal z: log(0.6745)
@@ -270,11 +280,18 @@ class _Problem:
                              f_scale=3.0, xtol=1e-8, ftol=1e-8, max_nfev=100)
 
 
-def _point_leverage(point_blocks: np.ndarray) -> np.ndarray:
-    """Diagonal of each match's hat matrix A (A^T A)^-1 A^T, A its (6, 3) point block:
-    the part of each residual that the match's own point absorbs, (n, 6)."""
+def _leverage(pose_blocks: np.ndarray, point_blocks: np.ndarray) -> np.ndarray:
+    """Diagonal of the whole problem's hat matrix J (J^T J)^-1 J^T, (n, 6): each
+    residual's share absorbed by its match's point plus the pose's share (the pose
+    columns with the points' part projected out, the Schur complement). With few
+    matches the pose absorbs a good part of the residuals; leaving it out makes the
+    fitted noise shrink round after round."""
     inverse = np.linalg.pinv(np.einsum("nri,nrj->nij", point_blocks, point_blocks))
-    return np.einsum("nri,nij,nrj->nr", point_blocks, inverse, point_blocks)
+    reduced = pose_blocks - np.einsum("nri,nij,nsj,nsk->nrk", point_blocks, inverse, point_blocks,
+                                      pose_blocks)
+    schur = np.einsum("nri,nrj->ij", reduced, reduced)
+    return (np.einsum("nri,nij,nrj->nr", point_blocks, inverse, point_blocks)
+            + np.einsum("nri,ij,nrj->nr", reduced, np.linalg.pinv(schur), reduced))
 
 
 def _pose_covariance(pose_blocks: np.ndarray, point_blocks: np.ndarray) -> np.ndarray:
@@ -411,7 +428,7 @@ def refine_relative_pose(obs1: np.ndarray, obs2: np.ndarray, camera1: LightField
                             "cauchy").x
         params[:6] = sub[:6]
         params[6:].reshape(n, 3)[inliers] = sub[6:].reshape(-1, 3)
-        redundancy = 1.0 - _point_leverage(problem.blocks(sub)[1])
+        redundancy = 1.0 - _leverage(*problem.blocks(sub))
         noise = _update_noise(noise, problem.residuals(sub), redundancy, cov1[inliers], cov2[inliers])
         # Every match's point for that pose, then the chi-square test.
         problem = _Problem(obs1, obs2, camera1, camera2, _residual_noise(noise, cov1, cov2))
@@ -439,6 +456,200 @@ def refine_relative_pose(obs1: np.ndarray, obs2: np.ndarray, camera1: LightField
 def _mad(values: np.ndarray) -> float:
     """1.4826 x the median absolute value (a robust standard deviation about 0)."""
     return float(1.4826 * np.median(np.abs(values))) if values.size else 1.0
+
+
+def _transfer(obs1: np.ndarray, sigma1: np.ndarray, camera1: LightFieldCamera,
+              camera2: LightFieldCamera, rotation: np.ndarray, translation: np.ndarray):
+    """Where capture 2 sees capture 1's features under a pose, and how uncertain that is.
+
+    ``rotation`` (..., 3, 3) and ``translation`` (..., 3) may hold a batch of poses.
+    Returns the predicted (x, y, slope) in capture 2, shape (..., n, 3) (NaN for points
+    behind it), and the first-order covariance of that prediction from capture 1's
+    noise ``sigma1`` (n, 2: position, slope) carried through the pixel and the inverse
+    depth w, shape (..., n, 3, 3). The point is (x, y, w) in capture 1; capture 2 sees
+    ``p = R d + t w``, d = ((x - cx) / f, (y - cy) / f, 1) (the model of
+    :func:`refine_relative_pose`).
+    """
+    R, t = np.asarray(rotation, np.float64), np.asarray(translation, np.float64)
+    f1, f2 = camera1.focal_length, camera2.focal_length
+    cx1, cy1 = camera1.principal_point
+    cx2, cy2 = camera2.principal_point
+    n = len(obs1)
+    w = camera1.inverse_depth(obs1[:, 2])
+    d = np.column_stack([(obs1[:, 0] - cx1) / f1, (obs1[:, 1] - cy1) / f1, np.ones(n)])
+    p = np.einsum("...ij,nj->...ni", R, d) + w[:, None] * t[..., None, :]
+    pz = np.where(p[..., 2] > 1e-9, p[..., 2], np.nan)  # in front of capture 2 only
+    pred = np.stack([f2 * p[..., 0] / pz + cx2, f2 * p[..., 1] / pz + cy2,
+                     camera2.slope_scale * (w / pz - 1 / camera2.focus_distance)], axis=-1)
+    # d p / d (x1, y1, w): the same (3, 3) for every feature of a pose.
+    dp = np.stack([R[..., :, 0] / f1, R[..., :, 1] / f1, t], axis=-1)[..., None, :, :]
+    z2 = pz[..., None] ** 2
+    J = np.empty(pred.shape + (3,))
+    J[..., 0, :] = f2 * (dp[..., 0, :] * pz[..., None] - p[..., 0:1] * dp[..., 2, :]) / z2
+    J[..., 1, :] = f2 * (dp[..., 1, :] * pz[..., None] - p[..., 1:2] * dp[..., 2, :]) / z2
+    J[..., 2, :] = -camera2.slope_scale * w[:, None] * dp[..., 2, :] / z2
+    J[..., 2, 2] += camera2.slope_scale / pz
+    noise1 = np.column_stack([sigma1[:, 0], sigma1[:, 0], sigma1[:, 1] / camera1.slope_scale]) ** 2
+    return pred, np.einsum("...nij,nj,...nkj->...nik", J, noise1, J)
+
+
+def _transfer_distances(obs1, obs2, sigma1, sigma2, camera1, camera2, rotation, translation):
+    """Squared Mahalanobis distance (3 degrees of freedom) of each match i, capture 2's
+    observation against capture 1's prediction under the pose(s): shape (..., n); inf
+    where capture 2 sees the point behind it."""
+    pred, cov = _transfer(obs1, sigma1, camera1, camera2, rotation, translation)
+    cov = cov + (np.column_stack([sigma2[:, 0], sigma2[:, 0], sigma2[:, 1]]) ** 2)[:, :, None] * np.eye(3)
+    diff = obs2 - pred
+    valid = np.isfinite(diff).all(axis=-1)
+    diff = np.where(valid[..., None], diff, 0.0)
+    cov = np.where(valid[..., None, None], cov, np.eye(3))
+    distance = np.einsum("...j,...j->...", diff, np.linalg.solve(cov, diff[..., None])[..., 0])
+    return np.where(valid, distance, np.inf)
+
+
+def _rigid_fits(X1: np.ndarray, X2: np.ndarray, weights: Optional[np.ndarray] = None):
+    """Least-squares rigid motions X2 = R X1 + t (Kabsch) of point sets (..., k, 3),
+    optionally weighted (..., k): R (..., 3, 3), t (..., 3)."""
+    if weights is None:
+        weights = np.ones(X1.shape[:-1])
+    weights = weights / weights.sum(axis=-1, keepdims=True)
+    c1 = np.einsum("...k,...ki->...i", weights, X1)
+    c2 = np.einsum("...k,...ki->...i", weights, X2)
+    cross = np.einsum("...k,...ki,...kj->...ij", weights, X1 - c1[..., None, :], X2 - c2[..., None, :])
+    U, _, Vt = np.linalg.svd(cross)
+    sign = np.sign(np.linalg.det(np.swapaxes(Vt, -1, -2) @ np.swapaxes(U, -1, -2)))
+    fix = np.ones(U.shape[:-2] + (3,))
+    fix[..., 2] = np.where(sign == 0, 1.0, sign)
+    R = np.swapaxes(Vt, -1, -2) @ (fix[..., :, None] * np.swapaxes(U, -1, -2))
+    return R, c2 - np.einsum("...ij,...j->...i", R, c1)
+
+
+def _fit_transfer(obs1, obs2, sigma, camera1, camera2, rotation, translation):
+    """The pose (R, t) minimising the matches' transfer distances (capture 1's features
+    carried to capture 2 against its observations, :func:`_transfer_distances`) from a
+    start: SciPy's least_squares on the whitened differences, the covariances held at
+    the start pose."""
+    from scipy.optimize import least_squares
+
+    pred, cov = _transfer(obs1, sigma, camera1, camera2, rotation, translation)
+    cov = cov + (np.column_stack([sigma[:, 0], sigma[:, 0], sigma[:, 1]]) ** 2)[:, :, None] * np.eye(3)
+    try:
+        whiten = np.linalg.inv(np.linalg.cholesky(cov))  # (n, 3, 3): L^-1, cov = L L^T
+    except np.linalg.LinAlgError:
+        return rotation, translation
+
+    def residuals(q):
+        p, _ = _transfer(obs1, sigma, camera1, camera2, _rotation(q[:3]), q[3:])
+        diff = np.nan_to_num(obs2 - p, nan=1e6)  # behind capture 2: far off
+        return np.einsum("nij,nj->ni", whiten, diff).ravel()
+
+    q0 = np.concatenate([cv2.Rodrigues(rotation)[0].ravel(), translation])
+    fit = least_squares(residuals, q0, method="lm", xtol=1e-10, ftol=1e-10, max_nfev=200)
+    return _rotation(fit.x[:3]), fit.x[3:].copy()
+
+
+def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCamera,
+                       camera2: LightFieldCamera, sigma: Tuple[float, float] = RANSAC_SIGMA,
+                       seeds: Sequence[Tuple[np.ndarray, np.ndarray]] = (), seed: int = 0,
+                       confidence: float = 0.999, max_hypotheses: int = RANSAC_MAX_HYPOTHESES):
+    """Rigid motion from matched observations by MSAC scored where the noise is.
+
+    Hypotheses come from minimal samples of 3 matches (:func:`_rigid_fits` of their
+    3-D points) and from ``seeds``; each is scored by the matches' distances between
+    capture 2's observations (x, y, slope) and capture 1's features carried over by
+    the pose, with capture 1's noise carried through (:func:`_transfer_distances`,
+    a-priori noise ``sigma``), each distance capped at the chi-square 99.9% quantile
+    (3 degrees of freedom; MSAC). A 3-D threshold cannot do this: a far point's depth
+    is Z^2 / (f b) times its slope noise, so a threshold in metres either rejects the
+    far half of a scene's right matches or admits gross errors near the camera. The
+    best hypothesis is then re-fitted to its inliers (3-D points weighted by the
+    inverse of their depth variance, ~Z^-4) while its score improves (local
+    optimisation). Sampling stops when ``confidence`` that an all-inlier sample was
+    drawn is reached, or at ``max_hypotheses``.
+
+    Parameters
+    ----------
+    obs1, obs2 : ndarray, shape (N, 3)
+        Matched observations (x, y, slope).
+    camera1, camera2 : LightFieldCamera
+    sigma : (float, float)
+        A-priori noise of a feature's position (pixels) and slope (pixels per view step)
+        for the scoring (the refinement estimates the actual noise afterwards).
+    seeds : sequence of (R, t)
+        Further hypotheses to score (e.g. a 3-D RANSAC's).
+    seed : int
+        Sampling seed (results are repeatable).
+
+    Returns
+    -------
+    R : ndarray, shape (3, 3)
+    t : ndarray, shape (3,)
+    inliers : ndarray of bool, shape (N,)
+
+    Raises
+    ------
+    PoseEstimationError
+        If no hypothesis has at least 3 inliers.
+    """
+    obs1, obs2 = np.asarray(obs1, np.float64), np.asarray(obs2, np.float64)
+    n = len(obs1)
+    s = np.broadcast_to(np.asarray(sigma, np.float64), (n, 2))
+    X1, X2 = _back_project(camera1, obs1), _back_project(camera2, obs2)
+    usable = np.flatnonzero(np.isfinite(X1).all(axis=1) & np.isfinite(X2).all(axis=1))
+    if len(usable) < MIN_MATCHES:
+        raise PoseEstimationError(f"{len(usable)} matches with a depth in both captures; expected "
+                                  f"at least {MIN_MATCHES}")
+
+    def score(R, t):
+        d = _transfer_distances(obs1, obs2, s, s, camera1, camera2, R, t)
+        return np.minimum(d, CHI2_INLIER).sum(axis=-1), d < CHI2_INLIER
+
+    rng = np.random.default_rng(seed)
+    pool_cost, pool_R, pool_t = np.zeros(0), np.zeros((0, 3, 3)), np.zeros((0, 3))
+    best_share, drawn, needed = 0.0, 0, max_hypotheses
+    candidates = [(np.asarray(R, np.float64)[None], np.asarray(t, np.float64)[None]) for R, t in seeds]
+    while candidates or drawn < min(needed, max_hypotheses):
+        if candidates:
+            R, t = candidates.pop()
+        else:
+            batch = min(RANSAC_BATCH, max_hypotheses - drawn)
+            sample = np.array([rng.choice(usable, 3, replace=False) for _ in range(batch)])
+            drawn += batch
+            R, t = _rigid_fits(X1[sample], X2[sample])
+        cost, inliers = score(R, t)
+        share = float(inliers[:, usable].mean(axis=1).max())
+        if share > best_share:  # samples needed for an all-inlier one at this confidence
+            best_share = share
+            miss = 1.0 - share ** 3
+            if miss <= 0:
+                needed = 0
+            elif miss < 1:
+                needed = int(np.ceil(np.log(1 - confidence) / np.log(miss)))
+        # Keep the best few for local optimisation.
+        pool_cost = np.concatenate([pool_cost, cost])
+        pool_R, pool_t = np.concatenate([pool_R, R]), np.concatenate([pool_t, t])
+        keep = np.argsort(pool_cost, kind="stable")[:RANSAC_LOCAL_POOL]
+        pool_cost, pool_R, pool_t = pool_cost[keep], pool_R[keep], pool_t[keep]
+    # Local optimisation of each of the best: the pose that minimises its inliers'
+    # distances, while the score improves (a hypothesis from three noisy 3-D points is
+    # only near the pose its sample's matches support).
+    best_cost, best = np.inf, None
+    for R, t in zip(pool_R, pool_t):
+        cost, inliers = (v[0] for v in score(R[None], t[None]))
+        for _ in range(RANSAC_LOCAL_ROUNDS):
+            chosen = np.flatnonzero(inliers)
+            if len(chosen) < MIN_MATCHES:
+                break
+            R2, t2 = _fit_transfer(obs1[chosen], obs2[chosen], s[chosen], camera1, camera2, R, t)
+            cost2, inliers2 = (v[0] for v in score(R2[None], t2[None]))
+            if not cost2 < cost:
+                break
+            cost, R, t, inliers = cost2, R2, t2, inliers2
+        if cost < best_cost:
+            best_cost, best = cost, (R, t, inliers)
+    if best is None or best[2].sum() < MIN_MATCHES:
+        raise PoseEstimationError(f"RANSAC found no rigid motion among {n} matches")
+    return best
 
 
 def guided_matches(obs1: np.ndarray, descriptors1: np.ndarray, obs2: np.ndarray,
@@ -481,28 +692,7 @@ def guided_matches(obs1: np.ndarray, descriptors1: np.ndarray, obs2: np.ndarray,
         return []
     s1 = pose.noise.sigma(np.zeros((n1, 2)) if covariates1 is None else covariates1)
     s2 = pose.noise.sigma(np.zeros((n2, 2)) if covariates2 is None else covariates2)
-    R, t = pose.rotation, pose.translation
-    cx1, cy1 = camera1.principal_point
-    cx2, cy2 = camera2.principal_point
-    f2 = camera2.focal_length
-    w = camera1.inverse_depth(obs1[:, 2])
-    d = np.column_stack([(obs1[:, 0] - cx1) / camera1.focal_length,
-                         (obs1[:, 1] - cy1) / camera1.focal_length, np.ones(n1)])
-    p = d @ R.T + np.outer(w, t)
-    pz = np.where(p[:, 2] > 1e-9, p[:, 2], np.nan)  # in front of capture 2 only
-    pred = np.column_stack([f2 * p[:, 0] / pz + cx2, f2 * p[:, 1] / pz + cy2,
-                            camera2.slope_scale * (w / pz - 1 / camera2.focus_distance)])
-    # First-order covariance of the prediction from capture 1's noise in x, y and w.
-    dp = np.stack([np.broadcast_to(R[:, 0] / camera1.focal_length, (n1, 3)),
-                   np.broadcast_to(R[:, 1] / camera1.focal_length, (n1, 3)),
-                   np.broadcast_to(t, (n1, 3))], axis=2)  # d p / d (x1, y1, w): (n1, 3, 3)
-    J = np.empty((n1, 3, 3))
-    J[:, 0] = f2 * (dp[:, 0] * pz[:, None] - p[:, 0:1] * dp[:, 2]) / pz[:, None] ** 2
-    J[:, 1] = f2 * (dp[:, 1] * pz[:, None] - p[:, 1:2] * dp[:, 2]) / pz[:, None] ** 2
-    J[:, 2] = -camera2.slope_scale * w[:, None] * dp[:, 2] / pz[:, None] ** 2
-    J[:, 2, 2] += camera2.slope_scale / pz
-    noise1 = np.column_stack([s1[:, 0], s1[:, 0], s1[:, 1] / camera1.slope_scale]) ** 2
-    cov1 = np.einsum("nij,nj,nkj->nik", J, noise1, J)
+    pred, cov1 = _transfer(obs1, s1, camera1, camera2, pose.rotation, pose.translation)
     noise2 = np.column_stack([s2[:, 0], s2[:, 0], s2[:, 1]]) ** 2  # (n2, 3), diagonal
     # Candidates first by a lower bound of the distance (positions only, the covariance
     # bounded by its largest eigenvalue), then the exact distance of those.
@@ -607,9 +797,12 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
     Notes
     -----
     1. Putative matches: ratio test (optionally scale-sensitive).
-    2. RANSAC on the 3-D points (:meth:`LightFieldCamera.points_3d`) of the matches
-       with a depth, threshold 3% of their median depth (COLMAP's LO-RANSAC): only to
-       find a starting pose and inliers.
+    2. RANSAC (:func:`observation_ransac`): rigid motions of the 3-D points
+       (:meth:`LightFieldCamera.points_3d`) of samples of 3 matches, and COLMAP's
+       LO-RANSAC on all of them (threshold 3% of their median depth), each scored by
+       how far capture 2's observations (x, y, slope) lie from capture 1's features
+       carried over, so that far points, whose depths are poor, still count; the best
+       are re-fitted to their inliers. Only to find a starting pose and inliers.
     3. :func:`refine_relative_pose` from the RANSAC inliers: bundle adjustment of the
        pose and points in the observations (x, y, slope) of both captures, with a
        noise model fitted to the residuals and a chi-square inlier test.
@@ -643,9 +836,11 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
         raise PoseEstimationError(f"{int(finite.sum())} putative matches with a depth in both "
                                   f"captures (of {len(matches)}); expected at least {MIN_MATCHES}")
     threshold = 0.03 * float(np.median(np.concatenate([X1[finite, 2], X2[finite, 2]])))
-    R, t, mask = ransac_pose(X1[finite], X2[finite], threshold, seed)
-    inliers = np.zeros(len(matches), bool)
-    inliers[np.flatnonzero(finite)[mask]] = True
+    try:  # COLMAP's 3-D RANSAC: one more hypothesis for the scoring in observations
+        seeds = [ransac_pose(X1[finite], X2[finite], threshold, seed)[:2]]
+    except PoseEstimationError:
+        seeds = []
+    R, t, inliers = observation_ransac(o1, o2, camera1, camera2, seeds=seeds, seed=seed)
     noise = NoiseModel.for_keypoints(list(keypoints1) + list(keypoints2))
     c1, c2 = noise.covariates(keypoints1), noise.covariates(keypoints2)
     pose = refine_relative_pose(o1, o2, camera1, camera2, R, t, inliers, noise, (c1[q], c2[tr]))

@@ -1,5 +1,6 @@
 """``liff colmap`` (a COLMAP database of centre views and LiFF features) and ``liff sfm``
-(that, then exhaustive matching and incremental mapping, with the paper's table)."""
+(that, then matching of every pair, by COLMAP or by metric pose with a calibrated camera,
+and incremental mapping, with the paper's table)."""
 
 from __future__ import annotations
 
@@ -48,6 +49,11 @@ def add_parser(sub) -> None:
             p.add_argument("--mapper", choices=("default", "permissive"), default="default",
                            help="COLMAP's default mapper options or permissive ones")
             add_camera_options(p)  # with a camera, the model is scaled to metres
+            p.add_argument("--matching", choices=("pose", "colmap"), default=None,
+                           help="'pose': every pair matched by its metric relative pose "
+                                "(liff.colmap.match_by_pose; needs a camera, a few seconds "
+                                "per pair); 'colmap': COLMAP's exhaustive matching and "
+                                "verification (default: pose with a camera, else colmap)")
         p.add_argument("--focal", type=float, default=None,
                        help="focal length in pixels (default: COLMAP's guess, 1.2 x max side)")
         p.add_argument("--workers", type=common.positive_int, default=1,
@@ -150,6 +156,10 @@ def run_sfm(args: argparse.Namespace) -> int:
     sparse = os.path.join(args.workspace, "sparse")
     refuse_inputs([database, image_dir, sparse], common.protected_inputs(args), "--workspace")
     camera = camera_from_args(args)
+    matching = args.matching or ("pose" if camera is not None else "colmap")
+    if matching == "pose" and camera is None:
+        raise ValueError("--matching pose needs the camera's calibration; expected --camera, "
+                         "--hci or --lftoolbox, or --matching colmap")
     if args.overwrite:
         shutil.rmtree(sparse, ignore_errors=True)
     images = []
@@ -158,8 +168,20 @@ def run_sfm(args: argparse.Namespace) -> int:
     else:  # the calibration's focal length and principal point are COLMAP's prior
         failures = write(args, database, image_dir, args.focal or camera.focal_length,
                          camera.principal_point, images_out=images)
-    with common.step(f"liff sfm: matching every pair of {len(args.paths) - failures} images"):
-        colmap.match(database)
+    with common.step(f"liff sfm: matching every pair of {len(args.paths) - failures} images"
+                     + (" by their metric pose" if matching == "pose" else "")):
+        if matching == "pose":
+            inliers = colmap.match_by_pose(database, images, camera)
+            counts = [n for n in inliers.values() if n > 0]
+            print(f"matched by metric pose: {len(counts)} of {len(inliers)} pairs"
+                  + (f", {int(np.median(counts))} inlier matches per pair (median)" if counts else ""))
+            unmatched = [f"{a}-{b}" for (a, b), n in inliers.items() if n == 0]
+            if unmatched:
+                print(f"liff sfm: no metric pose for {len(unmatched)} of {len(inliers)} pairs "
+                      f"({', '.join(unmatched[:5])}{', ...' if len(unmatched) > 5 else ''}); "
+                      "those pairs are not matched", file=sys.stderr)
+        else:
+            colmap.match(database)
     # A calibrated camera's intrinsics are known: bundle adjustment keeps them.
     with common.step(f"liff sfm: incremental mapping ({args.mapper} mapper)"):
         result = colmap.reconstruct(database, image_dir, sparse, args.mapper,

@@ -26,7 +26,7 @@ scale-sensitive matching (docs/METRIC.md).
    both slopes agree with its depth within 0.3 px per view step.
 
 Usage:  python benchmarks/metric.py [--quick] [--scenes N] [--scene DIR] [--automatic]
-        [--colmap-matching]
+        [--colmap-matching] [--conditions NAME ...] [--skip-hci]
 """
 
 from __future__ import annotations
@@ -283,6 +283,8 @@ def run_captures(setup: dict, progress=True):
     for views in setup["views"]:
         for seed in range(setup["scenes"]):
             for name, capture in conditions(seed, setup, views):
+                if setup.get("conditions") and name not in setup["conditions"]:
+                    continue
                 camera = camera_of(capture)
                 feats = features(capture)
                 entry = dict(views=views, seed=seed, condition=name,
@@ -387,6 +389,9 @@ def main(argv=None) -> int:
     parser.add_argument("--skip-hci", action="store_true")
     parser.add_argument("--automatic", action="store_true",
                         help="the detector's automatic slope range instead of the known ones")
+    parser.add_argument("--conditions", nargs="+", default=None, metavar="NAME",
+                        help="only these capture conditions (clean, occluders, "
+                             "'low contrast + noise 1e-4', 'low contrast + noise 1e-3')")
     parser.add_argument("--colmap-matching", action="store_true",
                         help="metric SfM on COLMAP's own matching instead of liff.colmap.match_by_pose")
     args = parser.parse_args(argv)
@@ -399,6 +404,8 @@ def main(argv=None) -> int:
     setup = dict(QUICK if args.quick else FULL)
     if args.scenes:
         setup["scenes"] = args.scenes
+    if args.conditions:
+        setup["conditions"] = args.conditions
     start = time.time()
     hci = None
     if not args.skip_hci:

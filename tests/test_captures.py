@@ -106,6 +106,9 @@ def test_depth_map_and_slope_range_are_the_scene_geometry():
     assert np.isinf(empty.depth_map(0)).all()
     with pytest.raises(ValueError, match="expected a capture of a scene"):
         empty.slope_range()
+    for index in (1, -1, 0.5):
+        with pytest.raises(ValueError, match=r"expected an integer in \[0, 1\)"):
+            cap.depth_map(index)
 
 
 def test_liff_measures_the_rendered_slope():

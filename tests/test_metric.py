@@ -345,6 +345,10 @@ def test_ransac_scores_in_the_observations_where_far_points_are_noisy():
     R3, t3, inliers3 = ransac_pose(X1, X2, threshold)
     assert inliers3[:40].sum() < inliers[:40].sum()
     assert np.linalg.norm(t3 - t_true) > 3 * np.linalg.norm(t - t_true)
+    # every match wrong: some motion still agrees with a few, as with random re-pairings
+    obs1, obs2, _, _ = synthetic_observations(camera, 0, 300, 0.2, 0.02, seed=4)
+    with pytest.raises(liff.PoseEstimationError, match="re-paired at random"):
+        observation_ransac(obs1, obs2, camera, camera, seed=0)
 
 
 def test_refinement_noise_does_not_shrink_with_few_matches():
@@ -474,6 +478,12 @@ def test_match_by_pose_writes_verified_geometries(pose_capture, tmp_path):
             assert np.median(np.abs(np.einsum("ni,ij,nj->n", x2, E, x1))) < 2e-3
             assert np.allclose(np.asarray(geometry.E) / np.linalg.norm(geometry.E),
                                E / np.linalg.norm(E), atol=0.05)
+    with pytest.raises(ValueError, match="already holds matches"):
+        colmap.match_by_pose(database, images, camera)
+    fewer = colmap.FeatureImage("pose0.png", images[0].image, images[0].keypoints[:50],
+                                images[0].descriptors[:50])
+    with pytest.raises(ValueError, match="50 keypoints given"):
+        colmap.match_by_pose(database, [fewer, images[1]], camera)
     with pytest.raises(ValueError, match="not in the database"):
         colmap.match_by_pose(database, [colmap.FeatureImage("other.png", images[0].image,
                                                             images[0].keypoints, images[0].descriptors)],

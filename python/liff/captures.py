@@ -123,6 +123,8 @@ class Capture:
         """Ground-truth depth of light field ``index``'s centre view at its pixel centres
         (world units along the optical axis, ``inf`` where no patch is hit), (V, U)
         float32: the nearest patch along each pixel's central ray."""
+        if not isinstance(index, (int, np.integer)) or not 0 <= index < len(self.poses):
+            raise ValueError(f"index = {index!r}; expected an integer in [0, {len(self.poses)})")
         k, pose = self.intrinsics, self.poses[index]
         x = (np.arange(k.width) - k.cx) / k.focal
         y = (np.arange(k.height) - k.cy) / k.focal
@@ -132,7 +134,7 @@ class Capture:
         """The smallest and largest true slope (pixels per view step) in the centre views
         of all poses, from :meth:`depth_map`: the range a detector must search."""
         slopes = [self.slope_at_depth(d[np.isfinite(d)]) for d in map(self.depth_map, range(len(self.poses)))]
-        slopes = np.concatenate([s.ravel() for s in slopes])
+        slopes = np.concatenate([s.ravel() for s in slopes]) if slopes else np.zeros(0)
         if slopes.size == 0:
             raise ValueError("no patch is seen from any pose; expected a capture of a scene")
         return float(slopes.min()), float(slopes.max())

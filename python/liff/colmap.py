@@ -358,6 +358,11 @@ def _match_exhaustive(database_path: PathLike, matching, verification) -> None:
         device=pycolmap.Device.cpu)
 
 
+#: match_by_pose: a pose whose baseline is below this share of the scene's median depth
+#: is a rotation about the centre view (panoramic), not a calibrated two-view geometry
+PANORAMIC_BASELINE = 1e-6
+
+
 def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camera,
                   ratio: float = 0.8, seed: int = 0) -> Dict[Tuple[str, str], int]:
     """Matching of calibrated light fields by their metric relative pose, for every pair.
@@ -369,7 +374,8 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
     which 10-40 right) come back, and wrong ones are removed by the 3-D geometry that
     the slopes fix. The inliers are written as the pair's matches and its verified
     two-view geometry (calibrated: the essential matrix and pose of the estimate, the
-    translation of unit length as COLMAP stores it); a pair without a pose
+    translation of unit length as COLMAP stores it; panoramic, H = K R K^-1, when the
+    baseline is nil); a pair without a pose
     (:class:`liff.PoseEstimationError`) gets no matches. Instead of :func:`match`, on a
     database from :func:`write_database` of the same ``images``. Costs a pose estimate
     per pair (seconds each): N (N - 1) / 2 of them for N images.
@@ -395,8 +401,10 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
     Raises
     ------
     ValueError
-        If an image is not in the database, or names repeat.
+        If an image is not in the database or its keypoint count differs from the
+        database's, names repeat, or the database already holds matches.
     """
+    from .keypoint_rows import keypoint_slopes
     from .pose import PoseEstimationError, estimate_relative_pose
 
     names = [im.name for im in images]
@@ -409,6 +417,14 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
         if missing:
             raise ValueError(f"{missing}: not in the database {os.fspath(database_path)}; expected "
                              "the images written by write_database")
+        for im in images:
+            stored = db.num_keypoints_for_image(ids[im.name])
+            if stored != len(im.keypoints):
+                raise ValueError(f"{im.name}: {len(im.keypoints)} keypoints given, {stored} in the "
+                                 "database; expected the features written by write_database")
+        if db.num_matched_image_pairs() or db.num_verified_image_pairs():
+            raise ValueError(f"{os.fspath(database_path)} already holds matches; expected a fresh "
+                             "database from write_database")
         ordered = sorted(images, key=lambda im: ids[im.name])  # COLMAP keeps pairs as (smaller id, larger)
         for first, second in combinations(ordered, 2):
             try:
@@ -419,13 +435,22 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
                 inliers[(first.name, second.name)] = 0
                 continue
             pairs = np.array([(m.queryIdx, m.trainIdx) for m in matches], np.uint32).reshape(-1, 2)
-            direction = t / np.linalg.norm(t)
             geometry = pycolmap.TwoViewGeometry()
-            geometry.config = pycolmap.TwoViewGeometryConfiguration.CALIBRATED
             geometry.inlier_matches = pairs
-            tx, ty, tz = direction
-            geometry.E = np.array([[0, -tz, ty], [tz, 0, -tx], [-ty, tx, 0]]) @ R  # [t]_x R
-            geometry.cam2_from_cam1 = pycolmap.Rigid3d(pycolmap.Rotation3d(R), direction)
+            depth = np.nanmedian(camera.depth(keypoint_slopes([first.keypoints[m.queryIdx] for m in matches])))
+            if np.linalg.norm(t) <= PANORAMIC_BASELINE * (depth if np.isfinite(depth) else 1.0):
+                # No baseline (a rotation about the centre view): nothing to triangulate;
+                # COLMAP takes the pair as panoramic, related by H = K R K^-1.
+                K = camera.matrix() + np.array([[0, 0, 0.5], [0, 0, 0.5], [0, 0, 0]])  # COLMAP's pixels
+                geometry.config = pycolmap.TwoViewGeometryConfiguration.PANORAMIC
+                geometry.H = K @ R @ np.linalg.inv(K)
+                geometry.cam2_from_cam1 = pycolmap.Rigid3d(pycolmap.Rotation3d(R), np.zeros(3))
+            else:
+                direction = t / np.linalg.norm(t)
+                tx, ty, tz = direction
+                geometry.config = pycolmap.TwoViewGeometryConfiguration.CALIBRATED
+                geometry.E = np.array([[0, -tz, ty], [tz, 0, -tx], [-ty, tx, 0]]) @ R  # [t]_x R
+                geometry.cam2_from_cam1 = pycolmap.Rigid3d(pycolmap.Rotation3d(R), direction)
             db.write_matches(ids[first.name], ids[second.name], pairs)
             db.write_two_view_geometry(ids[first.name], ids[second.name], geometry)
             inliers[(first.name, second.name)] = len(pairs)

@@ -43,6 +43,10 @@ RANSAC_MAX_HYPOTHESES = 4096
 RANSAC_LOCAL_ROUNDS = 5
 #: best hypotheses that get local optimisation
 RANSAC_LOCAL_POOL = 16
+#: random re-pairings of the matches whose best inlier count is chance, and the factor by
+#: which a pose's inliers must exceed it
+RANSAC_CHANCE_TRIALS = 2
+RANSAC_CHANCE_FACTOR = 2
 #: lower bounds of the estimated noise: positions (pixels), slopes (pixels per view step)
 SIGMA_FLOOR = (1e-3, 1e-4)
 #: median of log |z| for a standard normal z: log(0.6745)
@@ -589,7 +593,10 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
     Raises
     ------
     PoseEstimationError
-        If no hypothesis has at least 3 inliers.
+        If no hypothesis has at least 3 inliers, or the best has fewer than twice the
+        inliers that the same search finds on the matches re-paired at random
+        (``RANSAC_CHANCE_TRIALS`` re-pairings): when every match is wrong, some motion
+        still agrees with a few of them.
     """
     obs1, obs2 = np.asarray(obs1, np.float64), np.asarray(obs2, np.float64)
     n = len(obs1)
@@ -600,11 +607,39 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
         raise PoseEstimationError(f"{len(usable)} matches with a depth in both captures; expected "
                                   f"at least {MIN_MATCHES}")
 
+    best = _msac(obs1, obs2, X1, X2, usable, s, camera1, camera2, seeds, np.random.default_rng(seed),
+                 confidence, max_hypotheses)
+    if best is None or best[2].sum() < MIN_MATCHES:
+        raise PoseEstimationError(f"RANSAC found no rigid motion among {n} matches")
+    # Significance: the same search on capture 2's features re-paired at random, which
+    # share no motion with capture 1's, must find far fewer inliers; else the "best"
+    # motion is one that any set of matches this size offers (all matches wrong).
+    rng = np.random.default_rng(seed + 1)
+    chance = 0
+    for _ in range(RANSAC_CHANCE_TRIALS):
+        order = rng.permutation(n)
+        found = _msac(obs1, obs2[order], X1, X2[order], usable[np.isfinite(X2[order][usable]).all(axis=1)],
+                      s, camera1, camera2, (), rng, confidence, max_hypotheses)
+        chance = max(chance, 0 if found is None else int(found[2].sum()))
+    k = int(best[2].sum())
+    if k < RANSAC_CHANCE_FACTOR * chance:
+        raise PoseEstimationError(f"{k} of {n} matches agree with the best rigid motion, and {chance} "
+                                  f"with one among the same matches re-paired at random; expected at "
+                                  f"least {RANSAC_CHANCE_FACTOR}x as many as chance gives (are the "
+                                  "captures of the same scene, and is the camera right?)")
+    return best
+
+
+def _msac(obs1, obs2, X1, X2, usable, s, camera1, camera2, seeds, rng, confidence, max_hypotheses):
+    """:func:`observation_ransac`'s search: (R, t, inliers) of the best hypothesis after
+    local optimisation, or None."""
+    if len(usable) < MIN_MATCHES:
+        return None
+
     def score(R, t):
         d = _transfer_distances(obs1, obs2, s, s, camera1, camera2, R, t)
         return np.minimum(d, CHI2_INLIER).sum(axis=-1), d < CHI2_INLIER
 
-    rng = np.random.default_rng(seed)
     pool_cost, pool_R, pool_t = np.zeros(0), np.zeros((0, 3, 3)), np.zeros((0, 3))
     best_share, drawn, needed = 0.0, 0, max_hypotheses
     candidates = [(np.asarray(R, np.float64)[None], np.asarray(t, np.float64)[None]) for R, t in seeds]
@@ -647,8 +682,6 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
             cost, R, t, inliers = cost2, R2, t2, inliers2
         if cost < best_cost:
             best_cost, best = cost, (R, t, inliers)
-    if best is None or best[2].sum() < MIN_MATCHES:
-        raise PoseEstimationError(f"RANSAC found no rigid motion among {n} matches")
     return best
 
 

@@ -46,7 +46,7 @@ RANSAC_LOCAL_POOL = 16
 #: random re-pairings of the matches whose best inlier count is chance, and the factor by
 #: which a pose's inliers must exceed it
 RANSAC_CHANCE_TRIALS = 2
-RANSAC_CHANCE_FACTOR = 2
+RANSAC_CHANCE_FACTOR = 1.5
 #: lower bounds of the estimated noise: positions (pixels), slopes (pixels per view step)
 SIGMA_FLOOR = (1e-3, 1e-4)
 #: median of log |z| for a standard normal z: log(0.6745)
@@ -593,7 +593,7 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
     Raises
     ------
     PoseEstimationError
-        If no hypothesis has at least 3 inliers, or the best has fewer than twice the
+        If no hypothesis has at least 3 inliers, or the best has fewer than 1.5 times the
         inliers that the same search finds on the matches re-paired at random
         (``RANSAC_CHANCE_TRIALS`` re-pairings): when every match is wrong, some motion
         still agrees with a few of them.

@@ -414,7 +414,9 @@ def main(argv=None) -> int:
         else:
             print(f"HCI scene not found at {args.scene}: skipped (pass --scene DIR)", file=sys.stderr)
     results = run_captures(setup)
-    header = (f"{setup['scenes']} scenes x {len(NOISE) + 2} conditions x views "
+    conditions_run = (f"conditions {', '.join(setup['conditions'])}" if setup.get("conditions")
+                      else f"{len(NOISE) + 2} conditions")
+    header = (f"{setup['scenes']} scenes x {conditions_run} x views "
               f"{', '.join(f'{v[0]}x{v[1]}' for v in setup['views'])}; {setup['poses']} poses of "
               f"{setup['size'][1]}x{setup['size'][0]} px on a 40-degree arc; contrastThreshold "
               f"{CONTRAST_THRESHOLD}, low contrast {CONTRAST}; slope ranges "

@@ -437,6 +437,29 @@ def test_cli_sfm_with_a_camera_is_in_metres(pose_files, tmp_path, capsys):
         assert ratio == pytest.approx(1.0, abs=0.02)
 
 
+def test_match_by_pose_writes_a_pair_without_baseline_as_panoramic(pose_capture, tmp_path):
+    # The same capture twice: the pose is the identity, no baseline to triangulate; an
+    # essential matrix from a unit translation of arbitrary direction would be made up.
+    import pycolmap
+
+    from liff import colmap
+
+    capture, features = pose_capture
+    camera = camera_of(capture)
+    (k, d), lf = features[1], capture.light_fields[1]
+    images = [colmap.FeatureImage(name, lf[2, 2], k, d) for name in ("a.png", "b.png")]
+    database = tmp_path / "database.db"
+    colmap.write_database(database, tmp_path / "images", images, focal=camera.focal_length,
+                          principal_point=camera.principal_point)
+    inliers = colmap.match_by_pose(database, images, camera)
+    assert inliers[("a.png", "b.png")] > 0.5 * len(k)
+    with pycolmap.Database.open(str(database)) as db:
+        ids = {im.name: im.image_id for im in db.read_all_images()}
+        geometry = db.read_two_view_geometry(ids["a.png"], ids["b.png"])
+    assert geometry.config == pycolmap.TwoViewGeometryConfiguration.PANORAMIC
+    assert np.allclose(np.asarray(geometry.H) / geometry.H[2, 2], np.eye(3), atol=1e-6)
+
+
 def test_cli_sfm_pose_matching_needs_a_camera(pose_files, tmp_path, capsys):
     _, paths = pose_files
     assert main(["sfm", *paths, "--workspace", str(tmp_path / "ws"), "--matching", "pose",

@@ -460,6 +460,16 @@ def test_match_by_pose_writes_a_pair_without_baseline_as_panoramic(pose_capture,
     assert np.allclose(np.asarray(geometry.H) / geometry.H[2, 2], np.eye(3), atol=1e-6)
 
 
+def test_cli_sfm_says_what_to_try_when_the_default_mapper_makes_no_model(pose_files, tmp_path, capsys):
+    # Two poses 10 degrees apart: COLMAP's default mapper wants 16 degrees for its first pair.
+    capture, paths = pose_files
+    assert main(["sfm", *paths[:2], "--workspace", str(tmp_path / "ws"),
+                 *camera_options(camera_of(capture)), *detector_options()]) == 1
+    captured = capsys.readouterr()
+    assert "FAILED (no model)" in captured.out
+    assert "try --mapper permissive" in captured.err
+
+
 def test_cli_sfm_pose_matching_needs_a_camera(pose_files, tmp_path, capsys):
     _, paths = pose_files
     assert main(["sfm", *paths, "--workspace", str(tmp_path / "ws"), "--matching", "pose",

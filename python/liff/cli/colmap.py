@@ -195,6 +195,9 @@ def run_sfm(args: argparse.Namespace) -> int:
         value = metrics[key]
         print(f"  {label:26s} " + ("-" if isinstance(value, float) and np.isnan(value) else fmt.format(value)))
     registered = result.best.num_reg_images() if result.success else 0
+    if not result.success and args.mapper == "default":
+        print("liff sfm: COLMAP's default mapper made no model (its first pair needs 100 inliers "
+              "seen 16 degrees apart); try --mapper permissive, or more poses", file=sys.stderr)
     if result.success and registered < result.num_images:
         print(f"liff sfm: only {registered} of {result.num_images} images registered; the others "
               "are not in the model (try --mapper permissive, or more overlap between poses)",

@@ -463,14 +463,15 @@ def _mad(values: np.ndarray) -> float:
 
 
 def _transfer(obs1: np.ndarray, sigma1: np.ndarray, camera1: LightFieldCamera,
-              camera2: LightFieldCamera, rotation: np.ndarray, translation: np.ndarray):
+              camera2: LightFieldCamera, rotation: np.ndarray, translation: np.ndarray,
+              covariance: bool = True):
     """Where capture 2 sees capture 1's features under a pose, and how uncertain that is.
 
     ``rotation`` (..., 3, 3) and ``translation`` (..., 3) may hold a batch of poses.
     Returns the predicted (x, y, slope) in capture 2, shape (..., n, 3) (NaN for points
     behind it), and the first-order covariance of that prediction from capture 1's
     noise ``sigma1`` (n, 2: position, slope) carried through the pixel and the inverse
-    depth w, shape (..., n, 3, 3). The point is (x, y, w) in capture 1; capture 2 sees
+    depth w, shape (..., n, 3, 3), or None when ``covariance`` is False. The point is (x, y, w) in capture 1; capture 2 sees
     ``p = R d + t w``, d = ((x - cx) / f, (y - cy) / f, 1) (the model of
     :func:`refine_relative_pose`).
     """
@@ -485,6 +486,8 @@ def _transfer(obs1: np.ndarray, sigma1: np.ndarray, camera1: LightFieldCamera,
     pz = np.where(p[..., 2] > 1e-9, p[..., 2], np.nan)  # in front of capture 2 only
     pred = np.stack([f2 * p[..., 0] / pz + cx2, f2 * p[..., 1] / pz + cy2,
                      camera2.slope_scale * (w / pz - 1 / camera2.focus_distance)], axis=-1)
+    if not covariance:
+        return pred, None
     # d p / d (x1, y1, w): the same (3, 3) for every feature of a pose.
     dp = np.stack([R[..., :, 0] / f1, R[..., :, 1] / f1, t], axis=-1)[..., None, :, :]
     z2 = pz[..., None] ** 2
@@ -543,7 +546,7 @@ def _fit_transfer(obs1, obs2, sigma, camera1, camera2, rotation, translation):
         return rotation, translation
 
     def residuals(q):
-        p, _ = _transfer(obs1, sigma, camera1, camera2, _rotation(q[:3]), q[3:])
+        p, _ = _transfer(obs1, sigma, camera1, camera2, _rotation(q[:3]), q[3:], covariance=False)
         diff = np.nan_to_num(obs2 - p, nan=1e6)  # behind capture 2: far off
         return np.einsum("nij,nj->ni", whiten, diff).ravel()
 

@@ -18,8 +18,12 @@ scale-sensitive matching (docs/METRIC.md).
    liff.colmap.match_by_pose, as liff sfm --camera does, or with --colmap-matching by
    COLMAP's own matching and verification; its default mapper, the permissive one where
    the default makes no model; intrinsics fixed to the calibration) on all poses of each
-   capture, scaled to metres with liff.colmap.metric_scale; the scale error is |s - 1|, s the
-   summed distances between the scaled model's camera centres over the true ones.
+   capture, scaled to metres with liff.colmap.metric_scale (by the pair poses' baselines
+   with pose matching, else by the slopes); the scale error is |s - 1|, s the summed
+   distances between the scaled model's camera centres over the true ones. Beside it:
+   the same error had the slopes' fit alone set the scale, and the scaled points' depth
+   error (median over observations of the least |z / z_true - 1|, z_true the ground-truth
+   depths within 5x5 pixels of the keypoint), which shows whether the points are metric too.
 4. Scale-sensitive matching: putative matches (ratio 0.8) of consecutive poses with and
    without liff.matching's metric-size test (factors 1.5 and 1.25); a match is correct
    if, triangulated with the true pose, it reprojects within 2 px in both captures and
@@ -55,6 +59,8 @@ SIZE_FACTORS = (1.5, 1.25)
 RATIO = 0.8
 CORRECT_PX = 2.0
 CORRECT_SLOPE = 0.3
+#: point_depth_error: ground truth is searched in this window (pixels) around a keypoint
+DEPTH_WINDOW = 5
 FULL = dict(scenes=3, poses=4, views=((5, 5), (9, 9)), size=(240, 320))
 QUICK = dict(scenes=1, poses=3, views=((5, 5),), size=(180, 240))
 
@@ -238,6 +244,8 @@ def matching_rows(capture, feats, camera):
 
 
 def metric_sfm(capture, feats, camera, workdir: str) -> dict:
+    """{"mapper": COLMAP's incremental model scaled by metric_scale, "graph": the model
+    from the pair poses (pose matching only)}, each a dict of its errors."""
     images, slopes = [], {}
     for i, ((keypoints, descriptors), lf) in enumerate(zip(feats, capture.light_fields)):
         name = f"pose{i:02d}.png"
@@ -247,8 +255,18 @@ def metric_sfm(capture, feats, camera, workdir: str) -> dict:
     database, image_dir = os.path.join(workdir, "database.db"), os.path.join(workdir, "images")
     colmap.write_database(database, image_dir, images, focal=camera.focal_length,
                           principal_point=camera.principal_point)
+    out, pair_poses = {}, None
     if MATCHING == "pose":
-        colmap.match_by_pose(database, images, camera)
+        pair_poses = colmap.match_by_pose(database, images, camera)
+        # as liff sfm --camera does by default: no scaling, the model is metric
+        rec = colmap.reconstruct_from_poses(database, image_dir, os.path.join(workdir, "sparse-graph"),
+                                            pair_poses).best
+        if rec is None or rec.num_reg_images() < 2:
+            out["graph"] = dict(error="no pair pose")
+        else:
+            fit = colmap.metric_scale(rec, slopes, camera, pair_poses)
+            out["graph"] = dict(model_errors(rec, capture), slopes_check=fit.scale_from_slopes - 1.0,
+                                baselines_check=fit.scale_from_baselines - 1.0)
     else:
         colmap.match(database)
     for mapper in ("default", "permissive"):  # permissive when the default makes no model
@@ -259,10 +277,19 @@ def metric_sfm(capture, feats, camera, workdir: str) -> dict:
         if rec is not None and rec.num_reg_images() >= 2:
             break
     else:
-        return dict(error=f"COLMAP registered {0 if rec is None else rec.num_reg_images()} images")
-    fit = colmap.metric_scale(rec, slopes, camera)
+        out["mapper"] = dict(error=f"COLMAP registered {0 if rec is None else rec.num_reg_images()} images")
+        return out
+    fit = colmap.metric_scale(rec, slopes, camera, pair_poses)
     colmap.scale_reconstruction(rec, fit.scale)
+    errors = model_errors(rec, capture)
+    out["mapper"] = dict(errors, mapper=mapper, source=fit.source,
+                         slopes_err=abs((1 + errors["scale_signed"]) * fit.scale_from_slopes / fit.scale - 1.0))
+    return out
 
+
+def model_errors(rec, capture) -> dict:
+    """scale_err |s - 1|, s the summed distances between the model's camera centres over
+    the true ones; registered images; depth_err (point_depth_error)."""
     names = {rec.image(i).name: i for i in rec.reg_image_ids()}
     est, true = [], []
     for i, pose in enumerate(capture.poses):
@@ -274,8 +301,30 @@ def metric_sfm(capture, feats, camera, workdir: str) -> dict:
     pairs = [(a, b) for a in range(len(est)) for b in range(a + 1, len(est))]
     ratio = (sum(np.linalg.norm(est[a] - est[b]) for a, b in pairs)
              / sum(np.linalg.norm(true[a] - true[b]) for a, b in pairs))
-    return dict(scale_err=abs(ratio - 1.0), registered=len(est), used=fit.observations, mapper=mapper,
-                inliers=fit.inliers, sigma=fit.sigma_slope)
+    return dict(scale_err=abs(ratio - 1.0), scale_signed=ratio - 1.0, registered=len(est),
+                depth_err=point_depth_error(rec, capture))
+
+
+def point_depth_error(rec, capture, window: int = DEPTH_WINDOW) -> float:
+    """Median over the scaled model's observations of min |z / z_true - 1|: z a 3-D
+    point's depth in the observing image's frame, z_true the ground-truth depths in the
+    window x window pixels around the keypoint (a feature on a depth edge may belong to
+    either side)."""
+    errors, r = [], window // 2
+    for image_id in rec.reg_image_ids():
+        image = rec.image(image_id)
+        truth = capture.depth_map(int(image.name[4:6]))
+        pose = image.cam_from_world()
+        R, t = np.asarray(pose.rotation.matrix()), np.asarray(pose.translation)
+        for point2D in image.points2D:
+            if point2D.has_point3D():
+                x, y = np.round(point2D.xy - 0.5).astype(int)  # COLMAP's pixel corners
+                patch = truth[max(y - r, 0):y + r + 1, max(x - r, 0):x + r + 1]
+                patch = patch[np.isfinite(patch)]
+                if patch.size:
+                    z = (R @ rec.point3D(point2D.point3D_id).xyz + t)[2]
+                    errors.append(np.min(np.abs(z / patch - 1.0)))
+    return float(np.median(errors)) if errors else float("nan")
 
 
 def run_captures(setup: dict, progress=True):
@@ -300,10 +349,58 @@ def run_captures(setup: dict, progress=True):
                     p = entry["poses"]
                     print(f"  {views[0]}x{views[1]} scene {seed} {name}: t err "
                           + ", ".join(f"{100 * r['t_err']:.2f}%" if "t_err" in r else "FAIL" for r in p)
-                          + "; sfm " + (f"{100 * entry['sfm']['scale_err']:.2f}%"
-                                        if "scale_err" in entry["sfm"] else entry["sfm"]["error"]),
+                          + "".join(f"; sfm {kind} " + (f"{100 * r['scale_err']:.2f}%" if "scale_err" in r
+                                                         else r["error"]) for kind, r in entry["sfm"].items()),
                           file=sys.stderr, flush=True)
     return out
+
+
+def sfm_tables(keyed) -> list:
+    """Section 3: the model from the pair poses (liff sfm --camera's default) and COLMAP's
+    incremental model scaled by metric_scale."""
+    lines = []
+    graph = any("graph" in e["sfm"] for entries in keyed.values() for e in entries)
+    if graph:
+        lines += ["", "## 3. Metric SfM from the pair poses (liff.colmap.reconstruct_from_poses, "
+                  "not scaled; liff sfm --camera's default)", "",
+                  "| views | condition | scenes | scale err median | scale err max | point depth err "
+                  "(median) | images registered (min) | check by slopes: max abs | check by baselines: "
+                  "max abs | failed |", "|---|---|---|---|---|---|---|---|---|---|"]
+        lines += sfm_rows(keyed, "graph", lambda done: (
+            f"{100 * max(abs(d['slopes_check']) for d in done):.2f}% | "
+            f"{100 * max(abs(d['baselines_check']) for d in done):.2f}%"), 2)
+    lines += ["", f"## 3{'b' if graph else ''}. Metric SfM (COLMAP's incremental mapper, scaled by "
+              "liff.colmap.metric_scale)", "",
+              "| views | condition | scenes | scale err median | scale err max | point depth err "
+              "(median) | images registered (min) | scale by | slopes alone: err median | err max | "
+              "permissive mapper | failed |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines += sfm_rows(keyed, "mapper", lambda done: (
+        ", ".join(f"{k} {sum(d['source'] == k for d in done)}" for k in ("baselines", "slopes")
+                  if any(d["source"] == k for d in done))
+        + f" | {100 * np.nanmedian([d['slopes_err'] for d in done]):.2f}% | "
+        f"{100 * np.nanmax([d['slopes_err'] for d in done]):.2f}% | "
+        f"{sum(d['mapper'] == 'permissive' for d in done)}"), 4)
+    return lines
+
+
+def sfm_rows(keyed, kind: str, extra, extra_cells: int) -> list:
+    lines, errs_all = [], []
+    for (views, condition), entries in keyed.items():
+        runs = [e["sfm"][kind] for e in entries if kind in e["sfm"]]
+        done = [r for r in runs if "scale_err" in r]
+        fails = [r["error"] for r in runs if "error" in r]
+        errs = [d["scale_err"] for d in done]
+        errs_all += errs
+        cells = (f"{100 * np.median(errs):.2f}% | {100 * max(errs):.2f}% | "
+                 f"{100 * np.nanmedian([d['depth_err'] for d in done]):.2f}% | "
+                 f"{min(d['registered'] for d in done)} of {len(entries[0]['poses']) + 1} | {extra(done)}"
+                 if done else " | ".join(["-"] * (4 + extra_cells)))
+        lines.append(f"| {views[0]}x{views[1]} | {condition} | {len(runs)} | {cells} | "
+                     f"{len(fails)}{' (' + '; '.join(fails) + ')' if fails else ''} |")
+    if errs_all:
+        lines += ["", f"scale error max {100 * max(errs_all):.2f}% over {len(errs_all)} reconstructions "
+                  "(target <= 2%)"]
+    return lines
 
 
 def report(hci, results) -> str:
@@ -350,21 +447,7 @@ def report(hci, results) -> str:
                   f"{100 * max(r['umeyama_t'] for r in all_ok):.2f}%; |t| "
                   f"{min(r['t_norm'] for r in all_ok):.2f}-{max(r['t_norm'] for r in all_ok):.2f} m; "
                   f"median time per pose {np.median([r['seconds'] for r in all_ok]):.1f} s"]
-    lines += ["", "## 3. Metric SfM (COLMAP, scaled by the slopes)", "",
-              "| views | condition | scenes | scale err median | scale err max | failed | permissive mapper |",
-              "|---|---|---|---|---|---|---|"]
-    errs_all = []
-    for (views, condition), entries in keyed.items():
-        errs = [e["sfm"]["scale_err"] for e in entries if "scale_err" in e["sfm"]]
-        errs_all += errs
-        fails = [e["sfm"]["error"] for e in entries if "error" in e["sfm"]]
-        cells = (f"{100 * np.median(errs):.2f}% | {100 * max(errs):.2f}%" if errs else "- | -")
-        permissive = sum(e["sfm"].get("mapper") == "permissive" for e in entries)
-        lines.append(f"| {views[0]}x{views[1]} | {condition} | {len(entries)} | {cells} | "
-                     f"{len(fails)}{' (' + '; '.join(fails) + ')' if fails else ''} | {permissive} |")
-    if errs_all:
-        lines += ["", f"scale error max {100 * max(errs_all):.2f}% over {len(errs_all)} reconstructions "
-                  "(target <= 2%)"]
+    lines += sfm_tables(keyed)
     lines += ["", f"## 4. Scale-sensitive matching (ratio {RATIO}; correct: within {CORRECT_PX:g} px "
               f"and {CORRECT_SLOPE:g} px/view of the true geometry)", "",
               "| views | condition | " + " | ".join(

@@ -302,6 +302,25 @@ def test_pose_estimation_checks_its_input():
         liff.estimate_relative_pose(kps, d, kps, d, "camera")
     with pytest.raises(ValueError, match="2 descriptors for 3 keypoints"):
         liff.estimate_relative_pose(kps, d, kps, d[:2], camera)
+    with pytest.raises(ValueError, match="widths 128 .a. and 64 .b.; expected the same width"):
+        liff.estimate_relative_pose(kps, d, kps, d[:, :64], camera)
+    nan_kps = [keypoint(10, 10, 1.0), keypoint(float("nan"), 10, 1.0), keypoint(12, 10, 1.0)]
+    with pytest.raises(ValueError, match="index 1.*expected finite pixel coordinates"):
+        liff.estimate_relative_pose(nan_kps, d, kps, d, camera)
+    for seed in (-1, 2 ** 40, 1.5, True):
+        with pytest.raises(ValueError, match=r"seed = .*expected an integer in \[0, 2\*\*31\)"):
+            liff.estimate_relative_pose(kps, d, kps, d, camera, seed=seed)
+
+
+@pytest.mark.parametrize("a, b, message", [
+    (np.ones((2, 128), np.float32), np.ones((3, 64), np.float32), "widths 128 .a. and 64 .b."),
+    (np.ones(128, np.float32), np.ones((3, 128), np.float32), "2-D .N, D. array"),
+    (np.ones((2, 128), np.float32), np.full((3, 128), np.nan, np.float32), "descriptors_b hold NaN"),
+    (np.array([["x"] * 128] * 2), np.ones((3, 128), np.float32), "dtype <U1"),
+])
+def test_ratio_matching_checks_descriptors(a, b, message):
+    with pytest.raises(ValueError, match=message):
+        liff.matching.ratio_matches(a, b, 0.8)
 
 
 def synthetic_observations(camera, n_right, n_wrong, sigma_xy, sigma_slope, seed):
@@ -412,19 +431,27 @@ def test_cli_pose_needs_a_camera(pose_files, capsys):
     assert "--focus-distance goes with --camera" in capsys.readouterr().err
 
 
-def test_cli_sfm_with_a_camera_is_in_metres(pose_files, tmp_path, capsys):
+@pytest.mark.parametrize("mapper, line", [
+    (None, r"model 0 in metres from 3 pair poses \(pose graph\); checks: the pair baselines say "
+           r"x ([\d.e+-]+), \d+ of \d+ observations' slopes \(noise [\d.e+-]+ px per view\) x ([\d.e+-]+)"),
+    ("default", r"scaled to metres: x ([\d.e+-]+) \(from the metric baselines of 3 image pairs"),
+])
+def test_cli_sfm_with_a_camera_is_in_metres(pose_files, tmp_path, capsys, mapper, line):
     import pycolmap
 
     capture, paths = pose_files
     workspace = tmp_path / "ws"
     assert main(["sfm", *paths, "--workspace", str(workspace), "--preprocess",
-                 *camera_options(camera_of(capture)), *detector_options()]) == 0
+                 *camera_options(camera_of(capture)), *detector_options()]
+                + ([] if mapper is None else ["--mapper", mapper])) == 0
     printed = capsys.readouterr().out
     assert "matched by metric pose: 3 of 3 pairs" in printed  # a camera given
-    scale = float(re.search(r"scaled to metres: x ([\d.e+-]+)", printed).group(1))
-    assert scale > 0
+    assert f"reconstruction ({mapper or 'poses'} mapper)" in printed
+    checks = [float(x) for x in re.search(line, printed).groups()]
+    # the pose graph's model is metric already: both checks say so within 1%
+    assert all(x > 0 for x in checks) and (mapper or all(x == pytest.approx(1, abs=0.01) for x in checks))
     model = pycolmap.Reconstruction(str(workspace / "sparse" / "0"))
-    # the calibration's intrinsics are kept by bundle adjustment (COLMAP's pixels: +0.5)
+    # the calibration's intrinsics are kept (COLMAP's pixels: +0.5)
     camera = camera_of(capture)
     assert list(next(iter(model.cameras.values())).params) == pytest.approx(
         [camera.focal_length, camera.principal_point[0] + 0.5, camera.principal_point[1] + 0.5])
@@ -435,6 +462,51 @@ def test_cli_sfm_with_a_camera_is_in_metres(pose_files, tmp_path, capsys):
     for a, b in ((0, 1), (1, 2), (0, 2)):
         ratio = np.linalg.norm(est[a] - est[b]) / np.linalg.norm(true[a] - true[b])
         assert ratio == pytest.approx(1.0, abs=0.02)
+
+
+def pose_database(capture, features, folder):
+    """(camera, FeatureImages pose0.png..., database path) of a fresh database in folder."""
+    from liff import colmap
+
+    camera = camera_of(capture)
+    images = [colmap.FeatureImage(f"pose{i}.png", lf[2, 2], k, d)
+              for i, (lf, (k, d)) in enumerate(zip(capture.light_fields, features))]
+    database = folder / "database.db"
+    colmap.write_database(database, folder / "images", images, focal=camera.focal_length,
+                          principal_point=camera.principal_point)
+    return camera, images, database
+
+
+def test_metric_model_from_pair_poses_and_both_scale_estimates(pose_capture, tmp_path):
+    from liff import colmap
+
+    capture, features = pose_capture
+    camera, images, database = pose_database(capture, features, tmp_path)
+    pair_poses = colmap.match_by_pose(database, images, camera)
+    result = colmap.reconstruct_from_poses(database, tmp_path / "images", tmp_path / "sparse", pair_poses)
+    model = result.best
+    assert model.num_reg_images() == 3 and model.num_points3D() >= 100
+    assert (tmp_path / "sparse" / "0" / "images.bin").exists()
+    # the cameras where the true poses put them (metres, up to the world frame)
+    centres = {model.image(i).name: model.image(i).projection_center() for i in model.reg_image_ids()}
+    for a, b in ((0, 1), (1, 2), (0, 2)):
+        d_est = np.linalg.norm(centres[f"pose{a}.png"] - centres[f"pose{b}.png"])
+        d_true = np.linalg.norm(capture.poses[a].centre - capture.poses[b].centre)
+        assert d_est == pytest.approx(d_true, rel=0.01)
+    # shrunk by half, both estimates find the factor 2 back; without pair poses, the slopes
+    colmap.scale_reconstruction(model, 0.5)
+    slopes = {im.name: liff.keypoint_slopes(im.keypoints) for im in images}
+    fit = colmap.metric_scale(model, slopes, camera, pair_poses)
+    assert fit.source == "baselines" and fit.pairs == 3
+    assert fit.scale == pytest.approx(2.0, rel=0.01)
+    assert fit.scale_from_slopes == pytest.approx(2.0, rel=0.01)
+    alone = colmap.metric_scale(model, slopes, camera)
+    assert alone.source == "slopes" and alone.pairs == 0 and alone.scale == fit.scale_from_slopes
+    with pytest.raises(ValueError, match="expected a liff.colmap.PairPose"):
+        colmap.metric_scale(model, slopes, camera, {("pose0.png", "pose1.png"): (np.eye(3), np.zeros(3))})
+    with pytest.raises(ValueError, match=r"\['other.png'\], not in the database"):
+        colmap.reconstruct_from_poses(database, tmp_path / "images", tmp_path / "sparse2",
+                                      {("pose0.png", "other.png"): pair_poses[("pose0.png", "pose1.png")]})
 
 
 def test_match_by_pose_writes_a_pair_without_baseline_as_panoramic(pose_capture, tmp_path):
@@ -451,8 +523,8 @@ def test_match_by_pose_writes_a_pair_without_baseline_as_panoramic(pose_capture,
     database = tmp_path / "database.db"
     colmap.write_database(database, tmp_path / "images", images, focal=camera.focal_length,
                           principal_point=camera.principal_point)
-    inliers = colmap.match_by_pose(database, images, camera)
-    assert inliers[("a.png", "b.png")] > 0.5 * len(k)
+    poses = colmap.match_by_pose(database, images, camera)
+    assert poses[("a.png", "b.png")].inliers > 0.5 * len(k)
     with pycolmap.Database.open(str(database)) as db:
         ids = {im.name: im.image_id for im in db.read_all_images()}
         geometry = db.read_two_view_geometry(ids["a.png"], ids["b.png"])
@@ -461,13 +533,17 @@ def test_match_by_pose_writes_a_pair_without_baseline_as_panoramic(pose_capture,
 
 
 def test_cli_sfm_says_what_to_try_when_the_default_mapper_makes_no_model(pose_files, tmp_path, capsys):
-    # Two poses 10 degrees apart: COLMAP's default mapper wants 16 degrees for its first pair.
+    # Two poses 10 degrees apart: COLMAP's default mapper wants 16 degrees for its first
+    # pair; the model from the pair poses (the default with a camera) has no such limit.
     capture, paths = pose_files
-    assert main(["sfm", *paths[:2], "--workspace", str(tmp_path / "ws"),
+    assert main(["sfm", *paths[:2], "--workspace", str(tmp_path / "ws"), "--mapper", "default",
                  *camera_options(camera_of(capture)), *detector_options()]) == 1
     captured = capsys.readouterr()
     assert "FAILED (no model)" in captured.out
     assert "try --mapper permissive" in captured.err
+    assert main(["sfm", *paths[:2], "--workspace", str(tmp_path / "ws2"),
+                 *camera_options(camera_of(capture)), *detector_options()]) == 0
+    assert "model 0 in metres from 1 pair pose (pose graph)" in capsys.readouterr().out
 
 
 def test_cli_sfm_pose_matching_needs_a_camera(pose_files, tmp_path, capsys):
@@ -475,6 +551,10 @@ def test_cli_sfm_pose_matching_needs_a_camera(pose_files, tmp_path, capsys):
     assert main(["sfm", *paths, "--workspace", str(tmp_path / "ws"), "--matching", "pose",
                  *detector_options()]) == 1
     assert "--matching pose needs the camera's calibration" in capsys.readouterr().err
+    assert main(["sfm", *paths, "--workspace", str(tmp_path / "ws"), "--mapper", "poses",
+                 *detector_options()]) == 1
+    assert "--mapper poses builds the model from the pairs' metric poses; expected --matching pose" \
+        in capsys.readouterr().err
 
 
 def test_match_by_pose_writes_verified_geometries(pose_capture, tmp_path):
@@ -483,13 +563,9 @@ def test_match_by_pose_writes_verified_geometries(pose_capture, tmp_path):
     from liff import colmap
 
     capture, features = pose_capture
-    camera = camera_of(capture)
-    images = [colmap.FeatureImage(f"pose{i}.png", lf[2, 2], k, d)
-              for i, (lf, (k, d)) in enumerate(zip(capture.light_fields, features))]
-    database = tmp_path / "database.db"
-    colmap.write_database(database, tmp_path / "images", images, focal=camera.focal_length,
-                          principal_point=camera.principal_point)
-    inliers = colmap.match_by_pose(database, images[::-1], camera)  # any order
+    camera, images, database = pose_database(capture, features, tmp_path)
+    poses = colmap.match_by_pose(database, images[::-1], camera)  # any order
+    inliers = {pair: pose.inliers for pair, pose in poses.items()}
     assert set(inliers) == {("pose0.png", "pose1.png"), ("pose0.png", "pose2.png"),
                             ("pose1.png", "pose2.png")}
     with pycolmap.Database.open(str(database)) as db:
@@ -521,6 +597,8 @@ def test_match_by_pose_writes_verified_geometries(pose_capture, tmp_path):
         colmap.match_by_pose(database, [colmap.FeatureImage("other.png", images[0].image,
                                                             images[0].keypoints, images[0].descriptors)],
                              camera)
+    with pytest.raises(ValueError, match="seed = -1; expected an integer"):
+        colmap.match_by_pose(database, images, camera, seed=-1)
 
 
 def write_hci_scene(folder, light_field, camera, width=None):

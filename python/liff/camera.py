@@ -54,8 +54,9 @@ def keypoint_geometry(keypoints: Sequence[cv2.KeyPoint]) -> Tuple[np.ndarray, np
     Raises
     ------
     ValueError
-        If an element is not a ``cv2.KeyPoint``, or the keypoints carry no slope (every
-        ``class_id`` -1, as ``cv2.SIFT``'s: :func:`liff.keypoint_slopes` with ``require``).
+        If an element is not a ``cv2.KeyPoint``, a position or size is not finite, or the
+        keypoints carry no slope (every ``class_id`` -1, as ``cv2.SIFT``'s:
+        :func:`liff.keypoint_slopes` with ``require``).
     """
     keypoints = list(keypoints)
     for k in keypoints:
@@ -63,6 +64,10 @@ def keypoint_geometry(keypoints: Sequence[cv2.KeyPoint]) -> Tuple[np.ndarray, np
             raise ValueError(f"keypoints hold a {type(k).__name__}; expected cv2.KeyPoint")
     points = np.array([k.pt for k in keypoints], np.float64).reshape(-1, 2)
     sizes = np.array([k.size for k in keypoints], np.float64)
+    bad = ~(np.isfinite(points).all(axis=1) & np.isfinite(sizes))
+    if bad.any():
+        raise ValueError(f"{int(bad.sum())} keypoints (first: index {int(np.argmax(bad))}) with a "
+                         "position or size that is not finite; expected finite pixel coordinates")
     return points, sizes, keypoint_slopes(keypoints, require=True)
 
 

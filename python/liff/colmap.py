@@ -38,6 +38,7 @@ import numpy as np
 from . import plot, preprocess
 from .io.images import IMAGE_SUFFIXES, write_image
 from .outputs import atomic_output
+from .pose_graph import PairMeasurement, absolute_poses
 
 try:
     import pycolmap
@@ -363,8 +364,43 @@ def _match_exhaustive(database_path: PathLike, matching, verification) -> None:
 PANORAMIC_BASELINE = 1e-6
 
 
+@dataclass
+class PairPose:
+    """Metric relative pose of an image pair, as :func:`match_by_pose` measured it.
+
+    Attributes
+    ----------
+    rotation : ndarray, shape (3, 3)
+    translation : ndarray, shape (3,)
+        Metres, ``X2 = rotation @ X1 + translation`` from the first image's centre-view
+        camera frame to the second's (:func:`liff.estimate_relative_pose`).
+    covariance : ndarray, shape (6, 6)
+        First-order covariance of (rotation vector in radians, translation in metres),
+        a lower bound (docs/METRIC.md).
+    inliers : int
+        Inlier matches, written to the database as the pair's matches.
+    """
+
+    rotation: np.ndarray
+    translation: np.ndarray
+    covariance: np.ndarray
+    inliers: int
+
+    @property
+    def translation_sigma(self) -> float:
+        """Standard deviation of ``|translation|``, metres."""
+        direction = self.translation / max(np.linalg.norm(self.translation), 1e-300)
+        return float(np.sqrt(direction @ self.covariance[3:, 3:] @ direction))
+
+    def measurement(self) -> PairMeasurement:
+        """The pose graph's view of it (RMS standard deviations per axis)."""
+        return PairMeasurement(self.rotation, self.translation,
+                               float(np.sqrt(np.trace(self.covariance[:3, :3]) / 3)),
+                               float(np.sqrt(np.trace(self.covariance[3:, 3:]) / 3)), self.inliers)
+
+
 def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camera,
-                  ratio: float = 0.8, seed: int = 0) -> Dict[Tuple[str, str], int]:
+                  ratio: float = 0.8, seed: int = 0) -> Dict[Tuple[str, str], Optional[PairPose]]:
     """Matching of calibrated light fields by their metric relative pose, for every pair.
 
     For light fields of one calibrated camera (:class:`liff.LightFieldCamera`) each pair's
@@ -390,27 +426,31 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
         The camera of every light field.
     ratio : float
         Lowe's ratio for the putative matches.
-    seed : int
+    seed : int in [0, 2**31)
         RANSAC's seed (repeatable).
 
     Returns
     -------
-    dict of (name1, name2) to int
-        Inlier matches of each pair (0 where no pose was found).
+    dict of (name1, name2) to PairPose or None
+        Each pair's metric pose and inlier count (None where no pose was found), in
+        COLMAP's pair order (the first name has the smaller image id); what
+        :func:`metric_scale` takes as ``pair_poses``.
 
     Raises
     ------
     ValueError
         If an image is not in the database or its keypoint count differs from the
-        database's, names repeat, or the database already holds matches.
+        database's, names repeat, the database already holds matches, or the seed is
+        outside [0, 2**31).
     """
     from .keypoint_rows import keypoint_slopes
-    from .pose import PoseEstimationError, estimate_relative_pose
+    from .pose import PoseEstimationError, _check_seed, estimate_relative_pose
 
+    _check_seed(seed)
     names = [im.name for im in images]
     if len(set(names)) != len(names):
         raise ValueError(f"repeated image names {sorted(names)}; expected one image each")
-    inliers = {}
+    poses = {}
     with colmap_log(), pycolmap.Database.open(os.fspath(database_path)) as db:
         ids = {image.name: image.image_id for image in db.read_all_images()}
         missing = [name for name in names if name not in ids]
@@ -428,11 +468,11 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
         ordered = sorted(images, key=lambda im: ids[im.name])  # COLMAP keeps pairs as (smaller id, larger)
         for first, second in combinations(ordered, 2):
             try:
-                R, t, matches = estimate_relative_pose(first.keypoints, first.descriptors,
-                                                       second.keypoints, second.descriptors,
-                                                       camera, ratio=ratio, seed=seed)
+                R, t, matches, details = estimate_relative_pose(
+                    first.keypoints, first.descriptors, second.keypoints, second.descriptors,
+                    camera, ratio=ratio, seed=seed, return_details=True)
             except PoseEstimationError:
-                inliers[(first.name, second.name)] = 0
+                poses[(first.name, second.name)] = None
                 continue
             pairs = np.array([(m.queryIdx, m.trainIdx) for m in matches], np.uint32).reshape(-1, 2)
             geometry = pycolmap.TwoViewGeometry()
@@ -453,8 +493,8 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
                 geometry.cam2_from_cam1 = pycolmap.Rigid3d(pycolmap.Rotation3d(R), direction)
             db.write_matches(ids[first.name], ids[second.name], pairs)
             db.write_two_view_geometry(ids[first.name], ids[second.name], geometry)
-            inliers[(first.name, second.name)] = len(pairs)
-    return inliers
+            poses[(first.name, second.name)] = PairPose(R, t, details.covariance, len(pairs))
+    return poses
 
 
 def mapper_options(kind: str = "default", seed: int = 0,
@@ -512,6 +552,88 @@ def reconstruct(database_path: PathLike, image_dir: PathLike, out_dir: PathLike,
     with pycolmap.Database.open(os.fspath(database_path)) as db:
         num_images = db.num_images()
     return SfmResult(dict(models), num_images)
+
+
+def _posed_pairs(pair_poses):
+    """The ((name1, name2), PairPose) items of :func:`match_by_pose`'s result that have a
+    pose; anything else but None is refused."""
+    for (a, b), pose in pair_poses.items():
+        if pose is None:
+            continue
+        if not isinstance(pose, PairPose):
+            raise ValueError(f"pair_poses[{a!r}, {b!r}] is a {type(pose).__name__}; expected a "
+                             "liff.colmap.PairPose (from match_by_pose) or None")
+        yield (a, b), pose
+
+
+def reconstruct_from_poses(database_path: PathLike, image_dir: PathLike, out_dir: PathLike,
+                           pair_poses: Dict[Tuple[str, str], Optional[PairPose]],
+                           seed: int = 0, verbose: bool = False) -> SfmResult:
+    """A metric model from the pairs' metric poses: pose graph, then COLMAP's triangulator.
+
+    For light fields of a calibrated camera matched by :func:`match_by_pose`. The
+    cameras' poses are the absolute poses that agree best with every pair's metric
+    relative pose (:func:`liff.pose_graph.absolute_poses`; the world is the camera
+    frame of the image with the most inliers, in metres); COLMAP's point triangulator
+    (``pycolmap.triangulate_points``) then triangulates the database's matches with
+    those poses held fixed and refines the points, the camera's intrinsics kept as
+    written. Every image connected to the reference by pairs with a pose is
+    registered; COLMAP's incremental mapper may register fewer (behind an occluding
+    fence, 2 of 4 images) and its rotations can be a degree off where the slopes fix
+    them within 0.2 degrees (docs/METRIC.md). The model is written to ``out_dir/0``.
+
+    Parameters
+    ----------
+    database_path, image_dir, out_dir : path
+    pair_poses : dict of (str, str) to PairPose or None
+        What :func:`match_by_pose` returned for this database.
+    seed : int
+        The triangulator's random seed.
+    verbose : bool
+        Show COLMAP's log.
+
+    Returns
+    -------
+    SfmResult
+        One model (``reconstructions[0]``), or none if no pair has a pose.
+
+    Raises
+    ------
+    ValueError
+        If a pair names an image that is not in the database, or a pose is not a
+        :class:`PairPose`.
+    """
+    measurements = {pair: pose.measurement() for pair, pose in _posed_pairs(pair_poses)}
+    with pycolmap.Database.open(os.fspath(database_path)) as db:
+        images = {image.name: image for image in db.read_all_images()}
+        cameras = {camera.camera_id: camera for camera in db.read_all_cameras()}
+        num_images = len(images)
+        missing = sorted({name for pair in measurements for name in pair} - set(images))
+        if missing:
+            raise ValueError(f"pair_poses name {missing}, not in the database "
+                             f"{os.fspath(database_path)}; expected its images")
+        keypoints = {name: db.read_keypoints(image.image_id)[:, :2] for name, image in images.items()}
+    if not measurements:
+        return SfmResult({}, num_images)
+    poses = absolute_poses(measurements)
+    model = pycolmap.Reconstruction()
+    for camera_id in sorted({images[name].camera_id for name in poses}):
+        model.add_camera_with_trivial_rig(cameras[camera_id])
+    for name, (R, t) in sorted(poses.items()):
+        stored = images[name]
+        image = pycolmap.Image(name=name, keypoints=keypoints[name].astype(np.float64),
+                               camera_id=stored.camera_id, image_id=stored.image_id)
+        model.add_image_with_trivial_frame(image, pycolmap.Rigid3d(pycolmap.Rotation3d(R), t))
+    options = mapper_options("default", seed, fixed_intrinsics=True)
+    # The poses are fixed and metric, so a point seen by two images is as well placed as
+    # by more: keep two-view tracks (the incremental mapper drops them by default).
+    options.triangulation.ignore_two_view_tracks = False
+    path = os.path.join(os.fspath(out_dir), "0")
+    os.makedirs(path, exist_ok=True)
+    with colmap_log(verbose):
+        model = pycolmap.triangulate_points(model, os.fspath(database_path), os.fspath(image_dir),
+                                            path, clear_points=True, options=options)
+    return SfmResult({0: model}, num_images)
 
 
 # --- metrics ---------------------------------------------------------------------------
@@ -578,6 +700,11 @@ def table_metrics(database_path: PathLike, result: Optional[SfmResult] = None) -
 
 # --- metric scale ----------------------------------------------------------------------
 
+#: metric_scale: a pair's baseline counts only when its relative standard deviation
+#: (PairPose.translation_sigma / |t|) is below this; panoramic pairs have none
+MAX_BASELINE_RELATIVE_SIGMA = 0.25
+
+
 @dataclass
 class MetricScale:
     """What :func:`metric_scale` returns.
@@ -586,31 +713,70 @@ class MetricScale:
     ----------
     scale : float
         Metres per reconstruction unit: multiply the model by it.
+        ``scale_from_baselines`` where it could be measured, else ``scale_from_slopes``.
+    source : str
+        ``"baselines"`` or ``"slopes"``: which estimate ``scale`` is.
+    scale_from_slopes : float
+        The fit of the 3-D points' depths to their slopes; NaN with fewer than 3
+        observations.
     observations : int
         Observations of 3-D points by LiFF features with a slope that the fit used.
     inliers : int
         Those within 3 robust standard deviations of the fit.
     sigma_slope : float
-        Robust standard deviation of the slope residuals, pixels per view step.
+        Robust standard deviation of the slope residuals, pixels per view step (NaN
+        without a fit).
+    scale_from_baselines : float
+        Weighted median over registered image pairs of ``|t| / d``: ``|t|`` the pair's
+        metric baseline (:class:`PairPose`), d the distance of the model's camera
+        centres; NaN without ``pair_poses`` or a usable pair.
+    pairs : int
+        Pairs behind ``scale_from_baselines``.
+    baseline_spread : float
+        Robust relative spread of the pairs' scales (1.4826 MAD / median; NaN with fewer
+        than 2 pairs): how well the model's camera layout agrees with the pair poses.
     """
 
     scale: float
+    source: str
+    scale_from_slopes: float
     observations: int
     inliers: int
     sigma_slope: float
+    scale_from_baselines: float = np.nan
+    pairs: int = 0
+    baseline_spread: float = np.nan
+
+    @property
+    def shape_disagreement(self) -> float:
+        """``scale_from_slopes / scale_from_baselines - 1``: how far the model's points'
+        depths disagree with its camera baselines (NaN unless both were measured)."""
+        return self.scale_from_slopes / self.scale_from_baselines - 1.0
 
 
 def metric_scale(reconstruction: "pycolmap.Reconstruction", slopes: Dict[str, np.ndarray],
-                 camera) -> MetricScale:
+                 camera, pair_poses: Optional[Dict[Tuple[str, str], Optional[PairPose]]] = None
+                 ) -> MetricScale:
     """The scale that turns a COLMAP reconstruction from LiFF features into metres.
 
     COLMAP's structure from motion fixes everything but the scale; a calibrated light
-    field fixes the scale too, from each feature's slope (docs/METRIC.md). For every
-    observation of a 3-D point by keypoint k of image I, z is the point's depth in I's
-    camera frame (model units) and the camera predicts the slope ``f b (1 / (s z) - 1 /
-    focus_distance)`` for scale s. The fit minimises the slope residuals (where the
-    noise is, so far points weigh little) robustly (SciPy's least_squares, soft-L1
-    loss at 3 robust standard deviations); the model is linear in u = 1 / s.
+    field fixes the scale too (docs/METRIC.md), two ways:
+
+    - From the slopes: for every observation of a 3-D point by keypoint k of image I, z
+      is the point's depth in I's camera frame (model units) and the camera predicts
+      the slope ``f b (1 / (s z) - 1 / focus_distance)`` for scale s. The fit minimises
+      the slope residuals (where the noise is, so far points weigh little) robustly
+      (SciPy's least_squares, soft-L1 loss at 3 robust standard deviations); the model
+      is linear in u = 1 / s. It rests on the points COLMAP triangulated, which may be
+      few (tens in a two-image model) and sit on depth edges.
+    - From the pair poses (``pair_poses``, :func:`match_by_pose`): each registered
+      pair's metric baseline ``|t|`` over its camera distance in the model, combined by
+      a median weighted by the baseline's inverse relative variance
+      ``(|t| / translation_sigma)^2``. Each baseline comes from every inlier of the
+      pair, through the bundle adjustment in the observations (x, y, slope) of
+      :func:`liff.estimate_relative_pose`, so it is the better estimate of the
+      quantity a model's scale is judged by, the distances of its cameras; used when
+      at least one pair counts (``MAX_BASELINE_RELATIVE_SIGMA``).
 
     Parameters
     ----------
@@ -620,6 +786,9 @@ def metric_scale(reconstruction: "pycolmap.Reconstruction", slopes: Dict[str, np
         Per image name, the slope of each keypoint (:func:`liff.keypoint_slopes`).
     camera : liff.LightFieldCamera
         The light field camera of every image.
+    pair_poses : dict of (str, str) to PairPose or None, optional
+        What :func:`match_by_pose` returned; pairs missing from the model, or None,
+        are skipped.
 
     Returns
     -------
@@ -628,9 +797,27 @@ def metric_scale(reconstruction: "pycolmap.Reconstruction", slopes: Dict[str, np
     Raises
     ------
     ValueError
-        If an image's slope count differs from its keypoints, or fewer than 3
-        observations with a positive depth remain (no scale can be measured).
+        If an image's slope count differs from its keypoints, a pair pose is not a
+        :class:`PairPose`, or neither estimate can be made (fewer than 3 observations
+        with a positive depth and no usable pair), or the slopes put the model at or
+        beyond infinity.
     """
+    slope_fit = _scale_from_slopes(reconstruction, slopes, camera)
+    baselines, pairs, spread = _scale_from_baselines(reconstruction, pair_poses or {})
+    if np.isfinite(baselines):
+        scale, source = baselines, "baselines"
+    elif slope_fit[1] >= 3:
+        scale, source = slope_fit[0], "slopes"
+    else:
+        raise ValueError(f"{slope_fit[1]} observations of 3-D points with a slope and no "
+                         "registered pair with a metric pose; expected at least 3 observations "
+                         "to measure the scale")
+    return MetricScale(scale, source, *slope_fit, baselines, pairs, spread)
+
+
+def _scale_from_slopes(reconstruction, slopes, camera) -> Tuple[float, int, int, float]:
+    """(scale, observations, inliers, sigma_slope) of the slopes' fit (NaN scale and
+    sigma with fewer than 3 observations)."""
     from scipy.optimize import least_squares
 
     depths, observed = [], []
@@ -653,8 +840,7 @@ def metric_scale(reconstruction: "pycolmap.Reconstruction", slopes: Dict[str, np
     keep = z > 0
     z, m = z[keep], m[keep]
     if len(z) < 3:
-        raise ValueError(f"{len(z)} observations of 3-D points with a slope; expected at least 3 "
-                         "to measure the scale")
+        return np.nan, len(z), 0, np.nan
     fb, offset = camera.slope_scale, camera.slope_scale / camera.focus_distance
     u_each = (m + offset) * z / fb  # 1/s from each observation alone
     u0 = float(np.median(u_each))
@@ -667,7 +853,31 @@ def metric_scale(reconstruction: "pycolmap.Reconstruction", slopes: Dict[str, np
                          "features with depth (check the camera)")
     final = residual([u])
     sigma = max(1.4826 * float(np.median(np.abs(final))), 1e-6)
-    return MetricScale(1.0 / u, len(z), int((np.abs(final) < 3 * sigma).sum()), sigma)
+    return 1.0 / u, len(z), int((np.abs(final) < 3 * sigma).sum()), sigma
+
+
+def _scale_from_baselines(reconstruction, pair_poses) -> Tuple[float, int, float]:
+    """(scale, pairs, spread): weighted median of |t| / d over registered pairs."""
+    centres = {reconstruction.image(i).name: reconstruction.image(i).projection_center()
+               for i in reconstruction.reg_image_ids()}
+    scales, weights = [], []
+    for (a, b), pose in _posed_pairs(pair_poses):
+        if a not in centres or b not in centres:
+            continue
+        baseline, distance = float(np.linalg.norm(pose.translation)), float(np.linalg.norm(centres[a] - centres[b]))
+        relative_sigma = pose.translation_sigma / baseline if baseline > 0 else np.inf
+        if not (distance > 0 and relative_sigma < MAX_BASELINE_RELATIVE_SIGMA):
+            continue
+        scales.append(baseline / distance)
+        weights.append(1.0 / max(relative_sigma, 1e-6) ** 2)
+    if not scales:
+        return np.nan, 0, np.nan
+    order = np.argsort(scales)
+    scales, weights = np.asarray(scales)[order], np.asarray(weights)[order]
+    cumulative = np.cumsum(weights)
+    median = float(scales[np.searchsorted(cumulative, 0.5 * cumulative[-1])])
+    spread = 1.4826 * float(np.median(np.abs(scales / median - 1))) if len(scales) >= 2 else np.nan
+    return median, len(scales), spread
 
 
 def scale_reconstruction(reconstruction: "pycolmap.Reconstruction", scale: float) -> None:

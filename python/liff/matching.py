@@ -54,7 +54,8 @@ def ratio_matches(descriptors_a: Optional[np.ndarray], descriptors_b: Optional[n
     ------
     ValueError
         For a ratio outside (0, 1], a factor <= 1 or not finite, sizes of the wrong
-        length or negative, or only one of ``metric_sizes`` and ``max_size_factor``.
+        length or negative, only one of ``metric_sizes`` and ``max_size_factor``, or
+        descriptors that are not 2-D real arrays of the same width with finite values.
     """
     if not 0 < ratio <= 1:
         raise ValueError(f"ratio = {ratio}; expected a value in (0, 1]")
@@ -64,14 +65,28 @@ def ratio_matches(descriptors_a: Optional[np.ndarray], descriptors_b: Optional[n
         raise ValueError("scale-sensitive matching needs both metric_sizes and max_size_factor")
     if descriptors_a is None or descriptors_b is None or len(descriptors_a) == 0 or len(descriptors_b) < 2:
         return []
-    a = np.asarray(descriptors_a, np.float32)
-    b = np.asarray(descriptors_b, np.float32)
+    a, b = _descriptor_matrix(descriptors_a, "a"), _descriptor_matrix(descriptors_b, "b")
+    if a.shape[1] != b.shape[1]:
+        raise ValueError(f"descriptors of widths {a.shape[1]} (a) and {b.shape[1]} (b); expected "
+                         "the same width (128 for SIFT and LiFF)")
     mask = None
     if metric_sizes is not None:
         mask = size_mask(metric_sizes, len(a), len(b), max_size_factor)
     matcher = cv2.BFMatcher(cv2.NORM_L2)
     knn = matcher.knnMatch(a, b, k=2) if mask is None else matcher.knnMatch(a, b, k=2, mask=mask)
     return [pair[0] for pair in knn if len(pair) == 2 and pair[0].distance < ratio * pair[1].distance]
+
+
+def _descriptor_matrix(descriptors, name: str) -> np.ndarray:
+    """Descriptors as float32 (N, D), checked: 2-D, real, finite."""
+    d = np.asarray(descriptors)
+    if d.ndim != 2 or not (np.issubdtype(d.dtype, np.integer) or np.issubdtype(d.dtype, np.floating)):
+        raise ValueError(f"descriptors_{name} of shape {d.shape} and dtype {d.dtype}; expected a "
+                         "2-D (N, D) array of float32 or uint8")
+    d = d.astype(np.float32, copy=False)
+    if not np.isfinite(d).all():
+        raise ValueError(f"descriptors_{name} hold NaN or infinite values; expected finite values")
+    return d
 
 
 def size_mask(metric_sizes, na: int, nb: int, factor: float) -> np.ndarray:

@@ -159,6 +159,13 @@ class RelativePose:
         return float(np.degrees(np.sqrt(np.trace(self.covariance[:3, :3]))))
 
 
+def _check_seed(seed) -> None:
+    """RANSAC seeds are what numpy and COLMAP both take: integers in [0, 2**31)."""
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) \
+            or not 0 <= seed < 2 ** 31:
+        raise ValueError(f"seed = {seed!r}; expected an integer in [0, 2**31)")
+
+
 def observations(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
     """(x, y, slope) of LiFF keypoints, float64 (N, 3): centre-view pixels and pixels
     per view step."""
@@ -584,7 +591,7 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
         for the scoring (the refinement estimates the actual noise afterwards).
     seeds : sequence of (R, t)
         Further hypotheses to score (e.g. a 3-D RANSAC's).
-    seed : int
+    seed : int in [0, 2**31)
         Sampling seed (results are repeatable).
 
     Returns
@@ -595,12 +602,15 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
 
     Raises
     ------
+    ValueError
+        For a seed outside [0, 2**31).
     PoseEstimationError
         If no hypothesis has at least 3 inliers, or the best has fewer than 1.5 times the
         inliers that the same search finds on the matches re-paired at random
         (``RANSAC_CHANCE_TRIALS`` re-pairings): when every match is wrong, some motion
         still agrees with a few of them.
     """
+    _check_seed(seed)
     obs1, obs2 = np.asarray(obs1, np.float64), np.asarray(obs2, np.float64)
     n = len(obs1)
     s = np.broadcast_to(np.asarray(sigma, np.float64), (n, 2))
@@ -803,7 +813,7 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
     max_size_factor : float, optional
         Scale-sensitive matching: reject candidates whose metric sizes differ by more
         than this factor (see :func:`liff.matching.ratio_matches`).
-    seed : int
+    seed : int in [0, 2**31)
         RANSAC's random seed (results are repeatable).
     return_details : bool
         Also return the :class:`RelativePose` (noise model, covariance, points).
@@ -823,8 +833,9 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
     Raises
     ------
     ValueError
-        For malformed input (keypoint and descriptor counts, cameras, keypoints that
-        carry no slope: every ``class_id`` -1, as ``cv2.SIFT``'s).
+        For malformed input (keypoint and descriptor counts, descriptor widths,
+        non-finite keypoint positions, cameras, the seed, keypoints that carry no slope:
+        every ``class_id`` -1, as ``cv2.SIFT``'s).
     PoseEstimationError (a ValueError)
         Fewer than 3 matches with a depth, no RANSAC solution, fewer than 3 inliers after
         refinement, or degenerate geometry (collinear points, all at infinity): never a
@@ -849,6 +860,7 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
     Model, assumptions and limits: docs/METRIC.md.
     """
     camera2 = camera1 if camera2 is None else camera2
+    _check_seed(seed)
     for name, camera in (("camera1", camera1), ("camera2", camera2)):
         if not isinstance(camera, LightFieldCamera):
             raise ValueError(f"{name} is a {type(camera).__name__}; expected a liff.LightFieldCamera")

@@ -46,8 +46,12 @@ def add_parser(sub) -> None:
         else:
             p.add_argument("--workspace", required=True,
                            help="folder for database.db, images/ and sparse/")
-            p.add_argument("--mapper", choices=("default", "permissive"), default="default",
-                           help="COLMAP's default mapper options or permissive ones")
+            p.add_argument("--mapper", choices=("poses", "default", "permissive"), default=None,
+                           help="'poses': a metric model from the pairs' metric poses (pose "
+                                "graph, then COLMAP's triangulator; needs --matching pose); "
+                                "'default' or 'permissive': COLMAP's incremental mapper with "
+                                "its default or permissive options, scaled to metres with a "
+                                "camera (default: poses with pose matching, else default)")
             add_camera_options(p)  # with a camera, the model is scaled to metres
             p.add_argument("--matching", choices=("pose", "colmap"), default=None,
                            help="'pose': every pair matched by its metric relative pose "
@@ -124,19 +128,48 @@ def write(args: argparse.Namespace, database: str, image_dir: str, focal=None,
     return failures
 
 
-def scale_to_metres(result, images, camera, sparse: str) -> None:
-    """Scales every model to metres by the features' slopes (liff.colmap.metric_scale),
-    rewrites it in place and prints the factor."""
+def scale_to_metres(result, images, camera, sparse: str, pair_poses=None, metric_model=False) -> None:
+    """Scales every model to metres (liff.colmap.metric_scale: by the pair poses'
+    baselines where there are some, else by the features' slopes), rewrites it in place
+    and prints the factor and how the two estimates agree. A ``metric_model`` (from the
+    pair poses) is in metres already: only the checks are printed."""
     from .. import colmap
     from ..keypoint_rows import keypoint_slopes
 
     slopes = {im.name: keypoint_slopes(im.keypoints) for im in images}
     for index, model in sorted(result.reconstructions.items()):
-        fit = colmap.metric_scale(model, slopes, camera)
+        fit = colmap.metric_scale(model, slopes, camera, pair_poses)
+        from_slopes = (f"{fit.inliers} of {fit.observations} observations' slopes "
+                       f"(noise {fit.sigma_slope:.3g} px per view)")
+        if metric_model:
+            print(f"  model {index} in metres from {fit.pairs} pair pose{'s' if fit.pairs != 1 else ''} "
+                  "(pose graph); checks: "
+                  f"the pair baselines say x {fit.scale_from_baselines:.4g}, {from_slopes} "
+                  f"x {fit.scale_from_slopes:.4g}")
+            checks = (fit.scale_from_baselines, fit.scale_from_slopes)
+            if any(abs(check - 1) > SHAPE_WARNING for check in checks if np.isfinite(check)):
+                print(f"liff sfm: model {index} disagrees with its pair poses or slopes by more "
+                      f"than {100 * SHAPE_WARNING:.0f}%: check the camera's calibration", file=sys.stderr)
+            continue
         colmap.scale_reconstruction(model, fit.scale)
         model.write(os.path.join(sparse, str(index)))
-        print(f"  model {index} scaled to metres: x {fit.scale:.6g} (from {fit.inliers} of "
-              f"{fit.observations} observations; slope noise {fit.sigma_slope:.3g} px per view)")
+        if fit.source == "baselines":
+            spread = "" if np.isnan(fit.baseline_spread) else f", spread {100 * fit.baseline_spread:.2g}%"
+            slopes_say = ("" if np.isnan(fit.scale_from_slopes)
+                          else f"; {from_slopes} say x {fit.scale_from_slopes:.6g}")
+            print(f"  model {index} scaled to metres: x {fit.scale:.6g} (from the metric baselines "
+                  f"of {fit.pairs} image pairs{spread}{slopes_say})")
+            if abs(fit.shape_disagreement) > SHAPE_WARNING:
+                print(f"liff sfm: model {index}'s points are {100 * fit.shape_disagreement:+.1f}% "
+                      "deeper by their slopes than its camera baselines make them: its shape is "
+                      "off (few images or points); its cameras are scaled right, its points less so "
+                      "(--mapper poses builds the model from the pair poses)", file=sys.stderr)
+        else:
+            print(f"  model {index} scaled to metres: x {fit.scale:.6g} (from {from_slopes})")
+
+
+#: scale_to_metres warns when the slopes' scale and the baselines' differ by more than this
+SHAPE_WARNING = 0.05
 
 
 def run_colmap(args: argparse.Namespace) -> int:
@@ -160,6 +193,10 @@ def run_sfm(args: argparse.Namespace) -> int:
     if matching == "pose" and camera is None:
         raise ValueError("--matching pose needs the camera's calibration; expected --camera, "
                          "--hci or --lftoolbox, or --matching colmap")
+    mapper = args.mapper or ("poses" if matching == "pose" else "default")
+    if mapper == "poses" and matching != "pose":
+        raise ValueError("--mapper poses builds the model from the pairs' metric poses; expected "
+                         "--matching pose (and a camera), or --mapper default or permissive")
     if args.overwrite:
         shutil.rmtree(sparse, ignore_errors=True)
     images = []
@@ -171,35 +208,44 @@ def run_sfm(args: argparse.Namespace) -> int:
     with common.step(f"liff sfm: matching every pair of {len(args.paths) - failures} images"
                      + (" by their metric pose" if matching == "pose" else "")):
         if matching == "pose":
-            inliers = colmap.match_by_pose(database, images, camera)
-            counts = [n for n in inliers.values() if n > 0]
-            print(f"matched by metric pose: {len(counts)} of {len(inliers)} pairs"
+            pair_poses = colmap.match_by_pose(database, images, camera)
+            counts = [pose.inliers for pose in pair_poses.values() if pose is not None]
+            print(f"matched by metric pose: {len(counts)} of {len(pair_poses)} pairs"
                   + (f", {int(np.median(counts))} inlier matches per pair (median)" if counts else ""))
-            unmatched = [f"{a}-{b}" for (a, b), n in inliers.items() if n == 0]
+            unmatched = [f"{a}-{b}" for (a, b), pose in pair_poses.items() if pose is None]
             if unmatched:
-                print(f"liff sfm: no metric pose for {len(unmatched)} of {len(inliers)} pairs "
+                print(f"liff sfm: no metric pose for {len(unmatched)} of {len(pair_poses)} pairs "
                       f"({', '.join(unmatched[:5])}{', ...' if len(unmatched) > 5 else ''}); "
                       "those pairs are not matched", file=sys.stderr)
         else:
+            pair_poses = None
             colmap.match(database)
-    # A calibrated camera's intrinsics are known: bundle adjustment keeps them.
-    with common.step(f"liff sfm: incremental mapping ({args.mapper} mapper)"):
-        result = colmap.reconstruct(database, image_dir, sparse, args.mapper,
-                                    fixed_intrinsics=camera is not None)
+    if mapper == "poses":
+        with common.step("liff sfm: a metric model from the pair poses (pose graph, COLMAP's "
+                         "triangulator)"):
+            result = colmap.reconstruct_from_poses(database, image_dir, sparse, pair_poses)
+    else:  # a calibrated camera's intrinsics are known: bundle adjustment keeps them
+        with common.step(f"liff sfm: incremental mapping ({mapper} mapper)"):
+            result = colmap.reconstruct(database, image_dir, sparse, mapper,
+                                        fixed_intrinsics=camera is not None)
     metrics = colmap.table_metrics(database, result)
-    print(f"reconstruction ({args.mapper} mapper): "
+    print(f"reconstruction ({mapper} mapper): "
           + ("a model in " + sparse if result.success else "FAILED (no model)"))
     if camera is not None and result.success:
-        scale_to_metres(result, images, camera, sparse)
+        scale_to_metres(result, images, camera, sparse, pair_poses, metric_model=mapper == "poses")
     for label, key, fmt in METRICS:
         value = metrics[key]
         print(f"  {label:26s} " + ("-" if isinstance(value, float) and np.isnan(value) else fmt.format(value)))
     registered = result.best.num_reg_images() if result.success else 0
-    if not result.success and args.mapper == "default":
+    if not result.success and mapper == "poses":
+        print("liff sfm: no pair has a metric pose, so there is no model; the poses need more "
+              "overlap (or check the camera)", file=sys.stderr)
+    if not result.success and mapper == "default":
         print("liff sfm: COLMAP's default mapper made no model (its first pair needs 100 inliers "
               "seen 16 degrees apart); try --mapper permissive, or more poses", file=sys.stderr)
     if result.success and registered < result.num_images:
+        hint = ("no metric pose links them to the others" if mapper == "poses"
+                else "try --mapper permissive, or more overlap between poses")
         print(f"liff sfm: only {registered} of {result.num_images} images registered; the others "
-              "are not in the model (try --mapper permissive, or more overlap between poses)",
-              file=sys.stderr)
+              f"are not in the model ({hint})", file=sys.stderr)
     return 1 if failures or registered < result.num_images else 0

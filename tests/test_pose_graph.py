@@ -80,6 +80,12 @@ def test_reference_defaults_to_the_strongest_capture_and_unlinked_ones_are_left_
     ({}, None, "no relative poses; expected at least one pair"),
     ({("a", "a"): PairMeasurement(np.eye(3), np.zeros(3), 1, 1, 1)}, None, "relates a capture to itself"),
     ({("a", "b"): PairMeasurement(np.eye(3), np.ones(3), 1, 1, 1)}, "z", "reference 'z' is in no pair"),
+    ({("a", "b"): PairMeasurement(2 * np.eye(3), np.ones(3), 1, 1, 1)}, None, "not a rotation matrix"),
+    ({("a", "b"): PairMeasurement(-np.eye(3), np.ones(3), 1, 1, 1)}, None, "determinant"),
+    ({("a", "b"): PairMeasurement(np.eye(3), np.ones(2), 1, 1, 1)}, None, "expected 3 finite values"),
+    ({("a", "b"): PairMeasurement(np.eye(3), np.ones(3), np.nan, 1, 1)}, None, "sigma_rotation = nan"),
+    ({("a", "b"): PairMeasurement(np.eye(3), np.ones(3), 1, 0.0, 1)}, None, "sigma_translation = 0.0"),
+    ({("a", "b"): (np.eye(3), np.ones(3))}, None, "expected a PairMeasurement"),
 ])
 def test_bad_graphs_are_refused(pairs, reference, message):
     with pytest.raises(ValueError, match=message):

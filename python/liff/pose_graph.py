@@ -67,15 +67,17 @@ def absolute_poses(pairs: Dict[Tuple[Hashable, Hashable], PairMeasurement],
     Raises
     ------
     ValueError
-        If ``pairs`` is empty, the reference is in no pair, or a pair relates a
-        capture to itself.
+        If ``pairs`` is empty, the reference is in no pair, a pair relates a capture to
+        itself, or a measurement is malformed (not a rotation matrix, a translation not
+        of 3 finite values, a standard deviation not positive and finite).
     """
     if not pairs:
         raise ValueError("no relative poses; expected at least one pair")
-    for first, second in pairs:
+    for (first, second), pair in pairs.items():
         if first == second:
             raise ValueError(f"pair ({first!r}, {second!r}) relates a capture to itself; expected "
                              "two captures")
+        _check_measurement(pair, (first, second))
     strength: Dict[Hashable, int] = {}
     for (first, second), pair in pairs.items():
         for name in (first, second):
@@ -111,6 +113,21 @@ def absolute_poses(pairs: Dict[Tuple[Hashable, Hashable], PairMeasurement],
                          for name in names])
     fit = least_squares(residuals, x0, loss="soft_l1", f_scale=LOSS_SCALE, x_scale="jac")
     return unpack(fit.x)
+
+
+def _check_measurement(pair, name) -> None:
+    if not isinstance(pair, PairMeasurement):
+        raise ValueError(f"pair {name!r} is a {type(pair).__name__}; expected a PairMeasurement")
+    R, t = np.asarray(pair.rotation, np.float64), np.asarray(pair.translation, np.float64)
+    if R.shape != (3, 3) or not np.isfinite(R).all() or not np.allclose(R @ R.T, np.eye(3), atol=1e-6) \
+            or np.linalg.det(R) <= 0:
+        raise ValueError(f"pair {name!r}: rotation of shape {R.shape} is not a rotation matrix; "
+                         "expected a (3, 3) orthonormal matrix with determinant +1")
+    if t.shape != (3,) or not np.isfinite(t).all():
+        raise ValueError(f"pair {name!r}: translation {t!r}; expected 3 finite values (metres)")
+    for label, sigma in (("sigma_rotation", pair.sigma_rotation), ("sigma_translation", pair.sigma_translation)):
+        if not (np.isfinite(sigma) and sigma > 0):
+            raise ValueError(f"pair {name!r}: {label} = {sigma!r}; expected a positive finite value")
 
 
 def _spanning_tree(pairs, reference) -> Dict[Hashable, Tuple[np.ndarray, np.ndarray]]:

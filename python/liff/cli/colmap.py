@@ -144,8 +144,8 @@ def scale_to_metres(result, images, camera, sparse: str, pair_poses=None, metric
         if metric_model:
             print(f"  model {index} in metres from {fit.pairs} pair pose{'s' if fit.pairs != 1 else ''} "
                   "(pose graph); checks: "
-                  f"the pair baselines say x {fit.scale_from_baselines:.4g}, {from_slopes} "
-                  f"x {fit.scale_from_slopes:.4g}")
+                  f"the pair baselines say x {fit.scale_from_baselines:.4f}, {from_slopes} "
+                  f"x {fit.scale_from_slopes:.4f}")
             checks = (fit.scale_from_baselines, fit.scale_from_slopes)
             if any(abs(check - 1) > SHAPE_WARNING for check in checks if np.isfinite(check)):
                 print(f"liff sfm: model {index} disagrees with its pair poses or slopes by more "

@@ -11,6 +11,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 import liff
 from liff import captures
@@ -504,6 +505,17 @@ def test_metric_model_from_pair_poses_and_both_scale_estimates(pose_capture, tmp
     assert alone.source == "slopes" and alone.pairs == 0 and alone.scale == fit.scale_from_slopes
     with pytest.raises(ValueError, match="expected a liff.colmap.PairPose"):
         colmap.metric_scale(model, slopes, camera, {("pose0.png", "pose1.png"): (np.eye(3), np.zeros(3))})
+    reversed_keys = {(b, a): pose for (a, b), pose in pair_poses.items()}
+    with pytest.raises(ValueError, match=r"is not the pose match_by_pose wrote .* \(reversed names"):
+        colmap.reconstruct_from_poses(database, tmp_path / "images", tmp_path / "sparse3", reversed_keys)
+    for bad, message in (([], "pair_poses is a list; expected the dict"),
+                         ({"pose0.png": None}, "key 'pose0.png'; expected a tuple")):
+        with pytest.raises(ValueError, match=message):
+            colmap.reconstruct_from_poses(database, tmp_path / "images", tmp_path / "sparse4", bad)
+    with pytest.raises(ValueError, match="slopes is a list; expected a dict"):
+        colmap.metric_scale(model, list(slopes.values()), camera)
+    with pytest.raises(ValueError, match="camera is a NoneType; expected a liff.LightFieldCamera"):
+        colmap.metric_scale(model, slopes, None)
     with pytest.raises(ValueError, match=r"\['other.png'\], not in the database"):
         colmap.reconstruct_from_poses(database, tmp_path / "images", tmp_path / "sparse2",
                                       {("pose0.png", "other.png"): pair_poses[("pose0.png", "pose1.png")]})
@@ -530,6 +542,14 @@ def test_match_by_pose_writes_a_pair_without_baseline_as_panoramic(pose_capture,
         geometry = db.read_two_view_geometry(ids["a.png"], ids["b.png"])
     assert geometry.config == pycolmap.TwoViewGeometryConfiguration.PANORAMIC
     assert np.allclose(np.asarray(geometry.H) / geometry.H[2, 2], np.eye(3), atol=1e-6)
+    # a model from that pose registers both images but has nothing to triangulate, and no
+    # baseline to scale by (its sigma is 0: every residual is)
+    model = colmap.reconstruct_from_poses(database, tmp_path / "images", tmp_path / "sparse", poses).best
+    assert model.num_reg_images() == 2 and model.num_points3D() == 0
+    with pytest.raises(ValueError, match="0 observations of 3-D points with a slope and no registered "
+                                         "pair with a metric pose"):
+        colmap.metric_scale(model, {"a.png": liff.keypoint_slopes(k), "b.png": liff.keypoint_slopes(k)},
+                            camera, poses)
 
 
 def test_cli_sfm_says_what_to_try_when_the_default_mapper_makes_no_model(pose_files, tmp_path, capsys):
@@ -661,3 +681,20 @@ def test_camera_options_read_a_toolbox_matrix_and_refuse_bad_files(tmp_path):
         camera_from_args(parser.parse_args(["--lftoolbox", str(tmp_path / "none.txt")]))
     with pytest.raises(ValueError, match="focal_length"):
         camera_from_args(parser.parse_args(["--camera", "-1", "0.1", "0", "0"]))
+
+
+def test_transfer_distance_of_a_point_in_capture_2s_image_plane_is_no_match():
+    # A pose that puts a point almost in capture 2's image plane predicts it with a
+    # variance of ~1e32 px^2: numpy's solve raised "Singular matrix" out of
+    # estimate_relative_pose (a benchmark pair, 9x9 views, noise 1e-3). Now: no match.
+    from liff.pose import _transfer_distances
+
+    camera = liff.LightFieldCamera(300.0, 0.04, (100.0, 100.0))
+    obs1 = np.array([[100.0, 100.0, 2.0], [120.0, 90.0, 1.0]])
+    w = camera.inverse_depth(obs1[:, 2])
+    R = Rotation.from_rotvec([0, np.pi / 2 - 1e-9, 0]).as_matrix()
+    d = np.array([0.0, 0.0, 1.0])
+    t = np.array([0.0, 0.0, (1e-8 - (R @ d)[2]) / w[0]])
+    sigma = np.array([[0.5, 0.05]] * 2)
+    distance = _transfer_distances(obs1, obs1, sigma, sigma, camera, camera, R, t)
+    assert distance.shape == (2,) and distance[0] == np.inf

@@ -557,13 +557,38 @@ def reconstruct(database_path: PathLike, image_dir: PathLike, out_dir: PathLike,
 def _posed_pairs(pair_poses):
     """The ((name1, name2), PairPose) items of :func:`match_by_pose`'s result that have a
     pose; anything else but None is refused."""
-    for (a, b), pose in pair_poses.items():
+    if not isinstance(pair_poses, dict):
+        raise ValueError(f"pair_poses is a {type(pair_poses).__name__}; expected the dict from "
+                         "match_by_pose")
+    for key, pose in pair_poses.items():
+        if not (isinstance(key, tuple) and len(key) == 2):
+            raise ValueError(f"pair_poses key {key!r}; expected a tuple (name1, name2)")
+        a, b = key
         if pose is None:
             continue
         if not isinstance(pose, PairPose):
             raise ValueError(f"pair_poses[{a!r}, {b!r}] is a {type(pose).__name__}; expected a "
                              "liff.colmap.PairPose (from match_by_pose) or None")
         yield (a, b), pose
+
+
+def _check_against_database(db, id1: int, id2: int, pair, pose: PairMeasurement) -> None:
+    """The pair's pose must be the two-view geometry match_by_pose wrote for it (catches
+    reversed pairs and the poses of another database)."""
+    geometry = db.read_two_view_geometry(id1, id2)  # COLMAP inverts it for (larger, smaller)
+    expected = (pycolmap.TwoViewGeometryConfiguration.CALIBRATED,
+                pycolmap.TwoViewGeometryConfiguration.PANORAMIC)
+    stored = geometry.cam2_from_cam1 if geometry.config in expected else None
+    if stored is not None:
+        R = np.asarray(stored.rotation.matrix())
+        t = np.asarray(stored.translation)
+        direction = pose.translation / max(np.linalg.norm(pose.translation), 1e-300)
+        angle = np.arccos(np.clip((np.trace(R.T @ pose.rotation) - 1) / 2, -1, 1))
+        if angle < 1e-4 and (np.linalg.norm(t) < 0.5 or direction @ t > 1 - 1e-4):
+            return
+    raise ValueError(f"pair_poses[{pair[0]!r}, {pair[1]!r}] is not the pose match_by_pose wrote "
+                     "to this database for that pair (reversed names, or another database's "
+                     "poses?); expected match_by_pose's result for this database")
 
 
 def reconstruct_from_poses(database_path: PathLike, image_dir: PathLike, out_dir: PathLike,
@@ -600,8 +625,9 @@ def reconstruct_from_poses(database_path: PathLike, image_dir: PathLike, out_dir
     Raises
     ------
     ValueError
-        If a pair names an image that is not in the database, or a pose is not a
-        :class:`PairPose`.
+        If a pair names an image that is not in the database, a pose is not a
+        :class:`PairPose`, or a pair's pose differs from the two-view geometry that
+        :func:`match_by_pose` wrote for it (names reversed, another database's poses).
     """
     measurements = {pair: pose.measurement() for pair, pose in _posed_pairs(pair_poses)}
     with pycolmap.Database.open(os.fspath(database_path)) as db:
@@ -612,6 +638,8 @@ def reconstruct_from_poses(database_path: PathLike, image_dir: PathLike, out_dir
         if missing:
             raise ValueError(f"pair_poses name {missing}, not in the database "
                              f"{os.fspath(database_path)}; expected its images")
+        for (a, b), pose in measurements.items():
+            _check_against_database(db, images[a].image_id, images[b].image_id, (a, b), pose)
         keypoints = {name: db.read_keypoints(image.image_id)[:, :2] for name, image in images.items()}
     if not measurements:
         return SfmResult({}, num_images)
@@ -703,6 +731,9 @@ def table_metrics(database_path: PathLike, result: Optional[SfmResult] = None) -
 #: metric_scale: a pair's baseline counts only when its relative standard deviation
 #: (PairPose.translation_sigma / |t|) is below this; panoramic pairs have none
 MAX_BASELINE_RELATIVE_SIGMA = 0.25
+#: metric_scale: nor when it is below this, metres (the same light field twice: no
+#: baseline, whatever its sigma, which is 0 when every residual is)
+MIN_BASELINE = 1e-6
 
 
 @dataclass
@@ -802,6 +833,16 @@ def metric_scale(reconstruction: "pycolmap.Reconstruction", slopes: Dict[str, np
         with a positive depth and no usable pair), or the slopes put the model at or
         beyond infinity.
     """
+    from .camera import LightFieldCamera
+
+    if not isinstance(slopes, dict):
+        raise ValueError(f"slopes is a {type(slopes).__name__}; expected a dict of image name to "
+                         "the slopes of its keypoints")
+    if not isinstance(camera, LightFieldCamera):
+        raise ValueError(f"camera is a {type(camera).__name__}; expected a liff.LightFieldCamera")
+    if pair_poses is not None and not isinstance(pair_poses, dict):
+        raise ValueError(f"pair_poses is a {type(pair_poses).__name__}; expected the dict from "
+                         "match_by_pose, or None")
     slope_fit = _scale_from_slopes(reconstruction, slopes, camera)
     baselines, pairs, spread = _scale_from_baselines(reconstruction, pair_poses or {})
     if np.isfinite(baselines):
@@ -837,7 +878,7 @@ def _scale_from_slopes(reconstruction, slopes, camera) -> Tuple[float, int, int,
                 depths.append((R @ X + t)[2])
                 observed.append(m[index])
     z, m = np.asarray(depths), np.asarray(observed)
-    keep = z > 0
+    keep = (z > 0) & np.isfinite(m)
     z, m = z[keep], m[keep]
     if len(z) < 3:
         return np.nan, len(z), 0, np.nan
@@ -865,7 +906,7 @@ def _scale_from_baselines(reconstruction, pair_poses) -> Tuple[float, int, float
         if a not in centres or b not in centres:
             continue
         baseline, distance = float(np.linalg.norm(pose.translation)), float(np.linalg.norm(centres[a] - centres[b]))
-        relative_sigma = pose.translation_sigma / baseline if baseline > 0 else np.inf
+        relative_sigma = pose.translation_sigma / baseline if baseline > MIN_BASELINE else np.inf
         if not (distance > 0 and relative_sigma < MAX_BASELINE_RELATIVE_SIGMA):
             continue
         scales.append(baseline / distance)

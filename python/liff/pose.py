@@ -507,6 +507,11 @@ def _transfer(obs1: np.ndarray, sigma1: np.ndarray, camera1: LightFieldCamera,
     return pred, np.einsum("...nij,nj,...nkj->...nik", J, noise1, J)
 
 
+#: _transfer_distances: a prediction whose covariance has an entry above this (px^2, or
+#: (px/view)^2) is no prediction: its match is not an inlier
+MAX_TRANSFER_VARIANCE = 1e12
+
+
 def _transfer_distances(obs1, obs2, sigma1, sigma2, camera1, camera2, rotation, translation):
     """Squared Mahalanobis distance (3 degrees of freedom) of each match i, capture 2's
     observation against capture 1's prediction under the pose(s): shape (..., n); inf
@@ -514,10 +519,16 @@ def _transfer_distances(obs1, obs2, sigma1, sigma2, camera1, camera2, rotation, 
     pred, cov = _transfer(obs1, sigma1, camera1, camera2, rotation, translation)
     cov = cov + (np.column_stack([sigma2[:, 0], sigma2[:, 0], sigma2[:, 1]]) ** 2)[:, :, None] * np.eye(3)
     diff = obs2 - pred
-    valid = np.isfinite(diff).all(axis=-1)
+    # A point almost in capture 2's image plane is predicted with a variance that float64
+    # cannot invert (1e32 px^2 seen); such a prediction says nothing: no match there.
+    valid = np.isfinite(diff).all(axis=-1) & (np.abs(cov) < MAX_TRANSFER_VARIANCE).all(axis=(-2, -1))
     diff = np.where(valid[..., None], diff, 0.0)
     cov = np.where(valid[..., None, None], cov, np.eye(3))
-    distance = np.einsum("...j,...j->...", diff, np.linalg.solve(cov, diff[..., None])[..., 0])
+    try:
+        solved = np.linalg.solve(cov, diff[..., None])[..., 0]
+    except np.linalg.LinAlgError:  # still singular in float64: the pseudo-inverse
+        solved = (np.linalg.pinv(cov, hermitian=True) @ diff[..., None])[..., 0]
+    distance = np.einsum("...j,...j->...", diff, solved)
     return np.where(valid, distance, np.inf)
 
 

@@ -140,12 +140,17 @@ def scale_to_metres(result, images, camera, sparse: str, pair_poses=None, metric
     for index, model in sorted(result.reconstructions.items()):
         fit = colmap.metric_scale(model, slopes, camera, pair_poses)
         from_slopes = (f"{fit.inliers} of {fit.observations} observations' slopes "
-                       f"(noise {fit.sigma_slope:.3g} px per view)")
+                       f"(noise {number(fit.sigma_slope, '.3g')} px per view)")
+        if fit.sigma_slope > SLOPE_NOISE_WARNING:
+            print(f"liff sfm: model {index}'s points disagree with their slopes by "
+                  f"{fit.sigma_slope:.3g} px per view (robust sd; a right calibration gives a few "
+                  "hundredths): check the camera (focal length, baseline, focus distance)",
+                  file=sys.stderr)
         if metric_model:
             print(f"  model {index} in metres from {fit.pairs} pair pose{'s' if fit.pairs != 1 else ''} "
                   "(pose graph); checks: "
-                  f"the pair baselines say x {fit.scale_from_baselines:.4f}, {from_slopes} "
-                  f"x {fit.scale_from_slopes:.4f}")
+                  f"the pair baselines say x {number(fit.scale_from_baselines, '.4f')}, {from_slopes} "
+                  f"x {number(fit.scale_from_slopes, '.4f')}")
             checks = (fit.scale_from_baselines, fit.scale_from_slopes)
             if any(abs(check - 1) > SHAPE_WARNING for check in checks if np.isfinite(check)):
                 print(f"liff sfm: model {index} disagrees with its pair poses or slopes by more "
@@ -170,6 +175,14 @@ def scale_to_metres(result, images, camera, sparse: str, pair_poses=None, metric
 
 #: scale_to_metres warns when the slopes' scale and the baselines' differ by more than this
 SHAPE_WARNING = 0.05
+#: and when the slopes' residuals have a larger robust sd than this, pixels per view step
+#: (0.005-0.03 in benchmarks/metric.py's scenes; 3.5 with a baseline 10x off)
+SLOPE_NOISE_WARNING = 0.25
+
+
+def number(value: float, fmt: str) -> str:
+    """A value as printed, "-" for NaN (as the SfM table prints missing values)."""
+    return "-" if np.isnan(value) else format(value, fmt)
 
 
 def run_colmap(args: argparse.Namespace) -> int:
@@ -231,6 +244,10 @@ def run_sfm(args: argparse.Namespace) -> int:
     metrics = colmap.table_metrics(database, result)
     print(f"reconstruction ({mapper} mapper): "
           + ("a model in " + sparse if result.success else "FAILED (no model)"))
+    if result.success and result.best.num_points3D() == 0:
+        print("liff sfm: the model has no 3-D points: the poses have no baseline between them "
+              "(rotations about the centre view, or the same light field twice)", file=sys.stderr)
+        return 1
     if camera is not None and result.success:
         scale_to_metres(result, images, camera, sparse, pair_poses, metric_model=mapper == "poses")
     for label, key, fmt in METRICS:

@@ -3,6 +3,7 @@ metric SfM and the ``liff pose`` command (docs/METRIC.md)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -564,6 +565,16 @@ def test_cli_sfm_says_what_to_try_when_the_default_mapper_makes_no_model(pose_fi
     assert main(["sfm", *paths[:2], "--workspace", str(tmp_path / "ws2"),
                  *camera_options(camera_of(capture)), *detector_options()]) == 0
     assert "model 0 in metres from 1 pair pose (pose graph)" in capsys.readouterr().out
+
+
+def test_cli_sfm_warns_when_the_slopes_do_not_fit_the_camera(pose_files, tmp_path, capsys):
+    # A baseline 10x off still gives poses and a model, consistent with that wrong camera;
+    # only the slopes' residuals (3.5 px per view where a right camera gives ~0.01) say so.
+    capture, paths = pose_files
+    wrong = dataclasses.replace(camera_of(capture), baseline=10 * camera_of(capture).baseline)
+    main(["sfm", *paths[:2], "--workspace", str(tmp_path / "ws"), *camera_options(wrong),
+          *detector_options()])
+    assert "check the camera (focal length, baseline, focus distance)" in capsys.readouterr().err
 
 
 def test_cli_sfm_pose_matching_needs_a_camera(pose_files, tmp_path, capsys):

@@ -38,7 +38,7 @@ import numpy as np
 from . import plot, preprocess
 from .io.images import IMAGE_SUFFIXES, write_image
 from .outputs import atomic_output
-from .pose_graph import PairMeasurement, absolute_poses
+from .pose_graph import MIN_SIGMA_ROTATION, MIN_SIGMA_TRANSLATION, PairMeasurement, absolute_poses
 
 try:
     import pycolmap
@@ -393,10 +393,13 @@ class PairPose:
         return float(np.sqrt(direction @ self.covariance[3:, 3:] @ direction))
 
     def measurement(self) -> PairMeasurement:
-        """The pose graph's view of it (RMS standard deviations per axis)."""
-        return PairMeasurement(self.rotation, self.translation,
-                               float(np.sqrt(np.trace(self.covariance[:3, :3]) / 3)),
-                               float(np.sqrt(np.trace(self.covariance[3:, 3:]) / 3)), self.inliers)
+        """The pose graph's view of it: RMS standard deviations per axis, at least the pose
+        graph's floors (a pose fitted without residual, the same light field twice, has a
+        covariance of 0)."""
+        sigma_R = np.sqrt(max(np.trace(self.covariance[:3, :3]), 0.0) / 3)
+        sigma_t = np.sqrt(max(np.trace(self.covariance[3:, 3:]), 0.0) / 3)
+        return PairMeasurement(self.rotation, self.translation, max(float(sigma_R), MIN_SIGMA_ROTATION),
+                               max(float(sigma_t), MIN_SIGMA_TRANSLATION), self.inliers)
 
 
 def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camera,

@@ -112,3 +112,22 @@ def test_a_wrong_pair_closing_a_loop_is_dropped():
     for k in range(10):
         assert Rotation.from_matrix(found[k][0] @ chain[k][0].T).magnitude() < np.radians(0.01)
         assert np.linalg.norm(found[k][1] - chain[k][1]) < 1e-3
+
+
+def test_the_start_follows_the_most_precise_pairs_not_the_most_inliers():
+    # A 9x9-view benchmark capture behind a fence: the two widest pairs had the most
+    # inliers (146, 122 against 43-155) and translations 13% and 19% off, with sigmas 5-15x
+    # the others'. A tree by inliers started from them and the model came out 2.2% off in
+    # scale; by precision they are outvoted and dropped.
+    rng = np.random.default_rng(2)
+    poses = true_poses(4, 11)
+    pairs = {}
+    for (i, j), inliers in {(0, 1): 107, (1, 2): 43, (1, 3): 49, (2, 3): 155}.items():
+        pairs[(i, j)] = PairMeasurement(*relative(poses, i, j, rng, 2e-4, 1.5e-3), 2e-4, 1.5e-3, inliers)
+    for (i, j), inliers, bias, sigma in (((0, 2), 146, 1.13, 0.0076), ((0, 3), 122, 1.19, 0.023)):
+        R, t = relative(poses, i, j)
+        pairs[(i, j)] = PairMeasurement(R, bias * t, 9e-4, sigma, inliers)
+    found = absolute_poses(pairs, reference=0)
+    expected = in_frame_of(poses, 0)
+    for k in range(4):
+        assert np.linalg.norm(found[k][1] - expected[k][1]) < 0.01  # metres; the biased pairs: 0.3-0.5

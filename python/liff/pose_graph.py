@@ -10,10 +10,11 @@ all of them: for every pair
 
 (``R_j R_i^T`` and ``t_j - R_j R_i^T t_i`` are the relative pose the absolute ones predict),
 minimised with SciPy's ``least_squares`` under Cauchy's loss, whose pull fades with the
-residual, starting from a maximum spanning tree of the pairs by inlier count; pairs
+residual, starting from a spanning tree of the most precise pairs (smallest sigma of
+the translation, then most inliers); pairs
 that still disagree far more than the rest are dropped and the others fitted again.
-A wrong pair is outvoted where other pairs cover the same captures, unless it has more
-inliers than the right ones it contradicts (it is then in the starting tree). The
+A wrong pair is outvoted where other pairs cover the same captures, unless it is more
+precise than the right ones it contradicts (it is then in the starting tree). The
 world frame is the reference capture's camera frame (``R = I``, ``t = 0``). Because the
 translations are metric, no scale is left free, unlike the averaging of unit directions
 that structure from motion from 2-D features must do.
@@ -44,7 +45,7 @@ OUTLIER_ROUNDS = 3
 class PairMeasurement:
     """One relative pose: ``X_second = rotation @ X_first + translation`` (metres), with
     standard deviations of the rotation (radians) and translation (metres), and a
-    weight for the spanning tree (inlier count)."""
+    count of inliers (the spanning tree's tie-break)."""
 
     rotation: np.ndarray
     translation: np.ndarray
@@ -90,7 +91,7 @@ def absolute_poses(pairs: Dict[Tuple[Hashable, Hashable], PairMeasurement],
         reference = max(strength, key=lambda name: (strength[name], str(name)))
     elif reference not in strength:
         raise ValueError(f"reference {reference!r} is in no pair; expected one of {sorted(map(str, strength))}")
-    # Rounds: fit from the maximum spanning tree, drop the pairs that disagree far more
+    # Rounds: fit from the spanning tree, drop the pairs that disagree far more
     # than the rest (a wrong pair still bends a long loop under any loss), fit again.
     active = dict(pairs)
     for _ in range(OUTLIER_ROUNDS):
@@ -179,14 +180,20 @@ def _checked(pair, name) -> PairMeasurement:
     return PairMeasurement(R, t, sigmas[0], sigmas[1], int(inliers))
 
 
+def _precedes(p: PairMeasurement, q: PairMeasurement) -> bool:
+    """Whether the tree takes pair p before q: the more precise translation (errors add
+    along a chain in metres), then the more inliers."""
+    return (p.sigma_translation, -p.inliers) < (q.sigma_translation, -q.inliers)
+
+
 def _spanning_tree(pairs, reference) -> Dict[Hashable, Tuple[np.ndarray, np.ndarray]]:
-    """Poses chained from the reference along the pairs with the most inliers (Prim's
-    maximum spanning tree): the least squares' starting point."""
+    """Poses chained from the reference along the most precise pairs (Prim's algorithm,
+    :func:`_precedes`): the least squares' starting point."""
     poses = {reference: (np.eye(3), np.zeros(3))}
     while True:
         best = None
         for (a, b), p in pairs.items():
-            if (a in poses) != (b in poses) and (best is None or p.inliers > best[2].inliers):
+            if (a in poses) != (b in poses) and (best is None or _precedes(p, best[2])):
                 best = (a, b, p)
         if best is None:
             return poses

@@ -11,9 +11,9 @@ all of them: for every pair
 (``R_j R_i^T`` and ``t_j - R_j R_i^T t_i`` are the relative pose the absolute ones predict),
 minimised with SciPy's ``least_squares`` under Cauchy's loss, whose pull fades with the
 residual, starting from a spanning tree of the most precise pairs (smallest sigma of
-the translation, then most inliers); pairs
-that still disagree far more than the rest are dropped and the others fitted again.
-A wrong pair is outvoted where other pairs cover the same captures, unless it is more
+the translation, then most inliers); pairs that still disagree far more than the rest
+are dropped and the others fitted again (a capture whose every pair is dropped is left
+out). A wrong pair is outvoted where other pairs cover the same captures, unless it is more
 precise than the right ones it contradicts (it is then in the starting tree). The
 world frame is the reference capture's camera frame (``R = I``, ``t = 0``). Because the
 translations are metric, no scale is left free, unlike the averaging of unit directions

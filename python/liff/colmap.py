@@ -389,8 +389,9 @@ class PairPose:
     @property
     def translation_sigma(self) -> float:
         """Standard deviation of ``|translation|``, metres."""
-        direction = self.translation / max(np.linalg.norm(self.translation), 1e-300)
-        return float(np.sqrt(direction @ self.covariance[3:, 3:] @ direction))
+        from .pose import translation_length_sigma
+
+        return translation_length_sigma(self.translation, self.covariance)
 
     def measurement(self) -> PairMeasurement:
         """The pose graph's view of it: RMS standard deviations per axis, at least the pose
@@ -435,7 +436,8 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
     Returns
     -------
     dict of (name1, name2) to PairPose or None
-        Each pair's metric pose and inlier count (None where no pose was found), in
+        Each pair's metric pose and inlier count (None where no pose was found; the
+        translation 0 where the pair was written as panoramic), in
         COLMAP's pair order (the first name has the smaller image id); what
         :func:`metric_scale` takes as ``pair_poses``.
 
@@ -487,7 +489,8 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
                 K = camera.matrix() + np.array([[0, 0, 0.5], [0, 0, 0.5], [0, 0, 0]])  # COLMAP's pixels
                 geometry.config = pycolmap.TwoViewGeometryConfiguration.PANORAMIC
                 geometry.H = K @ R @ np.linalg.inv(K)
-                geometry.cam2_from_cam1 = pycolmap.Rigid3d(pycolmap.Rotation3d(R), np.zeros(3))
+                t = np.zeros(3)  # as written: no baseline, none to scale by (metric_scale)
+                geometry.cam2_from_cam1 = pycolmap.Rigid3d(pycolmap.Rotation3d(R), t)
             else:
                 direction = t / np.linalg.norm(t)
                 tx, ty, tz = direction
@@ -734,9 +737,6 @@ def table_metrics(database_path: PathLike, result: Optional[SfmResult] = None) -
 #: metric_scale: a pair's baseline counts only when its relative standard deviation
 #: (PairPose.translation_sigma / |t|) is below this; panoramic pairs have none
 MAX_BASELINE_RELATIVE_SIGMA = 0.25
-#: metric_scale: nor when it is below this, metres (the same light field twice: no
-#: baseline, whatever its sigma, which is 0 when every residual is)
-MIN_BASELINE = 1e-6
 
 
 @dataclass
@@ -909,7 +909,7 @@ def _scale_from_baselines(reconstruction, pair_poses) -> Tuple[float, int, float
         if a not in centres or b not in centres:
             continue
         baseline, distance = float(np.linalg.norm(pose.translation)), float(np.linalg.norm(centres[a] - centres[b]))
-        relative_sigma = pose.translation_sigma / baseline if baseline > MIN_BASELINE else np.inf
+        relative_sigma = pose.translation_sigma / baseline if baseline > 0 else np.inf
         if not (distance > 0 and relative_sigma < MAX_BASELINE_RELATIVE_SIGMA):
             continue
         scales.append(baseline / distance)

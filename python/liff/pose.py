@@ -150,13 +150,19 @@ class RelativePose:
     @property
     def translation_sigma(self) -> float:
         """Standard deviation of the translation's length, metres (first order)."""
-        direction = self.translation / max(np.linalg.norm(self.translation), 1e-300)
-        return float(np.sqrt(direction @ self.covariance[3:, 3:] @ direction))
+        return translation_length_sigma(self.translation, self.covariance)
 
     @property
     def rotation_sigma_degrees(self) -> float:
         """Root of the rotation vector's total variance, degrees."""
         return float(np.degrees(np.sqrt(np.trace(self.covariance[:3, :3]))))
+
+
+def translation_length_sigma(translation: np.ndarray, covariance: np.ndarray) -> float:
+    """First-order standard deviation of ``|translation|`` from the (6, 6) covariance of
+    (rotation vector, translation): its variance along the translation's direction."""
+    direction = translation / max(np.linalg.norm(translation), 1e-300)
+    return float(np.sqrt(direction @ covariance[3:, 3:] @ direction))
 
 
 def _check_seed(seed) -> None:

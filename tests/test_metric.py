@@ -709,3 +709,17 @@ def test_transfer_distance_of_a_point_in_capture_2s_image_plane_is_no_match():
     sigma = np.array([[0.5, 0.05]] * 2)
     distance = _transfer_distances(obs1, obs1, sigma, sigma, camera, camera, R, t)
     assert distance.shape == (2,) and distance[0] == np.inf
+
+
+def test_colmap_steps_name_a_missing_database_and_a_wrong_model(tmp_path):
+    from liff import colmap
+
+    missing = tmp_path / "none.db"
+    for call in (lambda: colmap.reconstruct_from_poses(missing, tmp_path, tmp_path / "s", {}),
+                 lambda: colmap.match_by_pose(missing, [], None),
+                 lambda: colmap.reconstruct(missing, tmp_path, tmp_path / "s"),
+                 lambda: colmap.table_metrics(missing)):
+        with pytest.raises(ValueError, match="none.db: no such COLMAP database; expected one written"):
+            call()
+    with pytest.raises(ValueError, match="reconstruction is a NoneType; expected a pycolmap.Reconstruction"):
+        colmap.metric_scale(None, {}, liff.LightFieldCamera(300.0, 0.04, (1.0, 1.0)))

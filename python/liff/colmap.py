@@ -335,6 +335,15 @@ def colmap_log(verbose: bool = False):
         pycolmap.logging.minloglevel = previous
 
 
+def _require_database(database_path: PathLike) -> str:
+    """The path as a string, if a database file is there (pycolmap's own error for a
+    missing one is "No registered database factory succeeded")."""
+    path = os.fspath(database_path)
+    if not os.path.isfile(path):
+        raise ValueError(f"{path}: no such COLMAP database; expected one written by write_database")
+    return path
+
+
 def match(database_path: PathLike, matching=None, verification=None, seed: int = 0,
           verbose: bool = False) -> None:
     """Exhaustive matching and two-view geometric verification of every image pair.
@@ -355,7 +364,7 @@ def match(database_path: PathLike, matching=None, verification=None, seed: int =
 
 def _match_exhaustive(database_path: PathLike, matching, verification) -> None:
     pycolmap.match_exhaustive(
-        os.fspath(database_path), matching_options=matching, verification_options=verification,
+        _require_database(database_path), matching_options=matching, verification_options=verification,
         device=pycolmap.Device.cpu)
 
 
@@ -456,7 +465,7 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
     if len(set(names)) != len(names):
         raise ValueError(f"repeated image names {sorted(names)}; expected one image each")
     poses = {}
-    with colmap_log(), pycolmap.Database.open(os.fspath(database_path)) as db:
+    with colmap_log(), pycolmap.Database.open(_require_database(database_path)) as db:
         ids = {image.name: image.image_id for image in db.read_all_images()}
         missing = [name for name in names if name not in ids]
         if missing:
@@ -551,11 +560,12 @@ def reconstruct(database_path: PathLike, image_dir: PathLike, out_dir: PathLike,
     COLMAP's log shows errors only unless ``verbose``.
     """
     options = mapper_options(mapper, seed, fixed_intrinsics)
+    _require_database(database_path)
     os.makedirs(out_dir, exist_ok=True)
     with colmap_log(verbose):
         models = pycolmap.incremental_mapping(os.fspath(database_path), os.fspath(image_dir),
                                               os.fspath(out_dir), options)
-    with pycolmap.Database.open(os.fspath(database_path)) as db:
+    with pycolmap.Database.open(_require_database(database_path)) as db:
         num_images = db.num_images()
     return SfmResult(dict(models), num_images)
 
@@ -636,7 +646,7 @@ def reconstruct_from_poses(database_path: PathLike, image_dir: PathLike, out_dir
         :func:`match_by_pose` wrote for it (names reversed, another database's poses).
     """
     measurements = {pair: pose.measurement() for pair, pose in _posed_pairs(pair_poses)}
-    with pycolmap.Database.open(os.fspath(database_path)) as db:
+    with pycolmap.Database.open(_require_database(database_path)) as db:
         images = {image.name: image for image in db.read_all_images()}
         cameras = {camera.camera_id: camera for camera in db.read_all_cameras()}
         num_images = len(images)
@@ -698,7 +708,7 @@ def table_metrics(database_path: PathLike, result: Optional[SfmResult] = None) -
 
     Ratios with a zero denominator are NaN.
     """
-    with pycolmap.Database.open(os.fspath(database_path)) as db:
+    with pycolmap.Database.open(_require_database(database_path)) as db:
         images = {im.image_id: im for im in db.read_all_images()}
         num_keypoints = {i: db.num_keypoints_for_image(i) for i in images}
         putative_used = {i: np.zeros(n, bool) for i, n in num_keypoints.items()}
@@ -846,6 +856,9 @@ def metric_scale(reconstruction: "pycolmap.Reconstruction", slopes: Dict[str, np
     if pair_poses is not None and not isinstance(pair_poses, dict):
         raise ValueError(f"pair_poses is a {type(pair_poses).__name__}; expected the dict from "
                          "match_by_pose, or None")
+    if not isinstance(reconstruction, pycolmap.Reconstruction):
+        raise ValueError(f"reconstruction is a {type(reconstruction).__name__}; expected a "
+                         "pycolmap.Reconstruction")
     slope_fit = _scale_from_slopes(reconstruction, slopes, camera)
     baselines, pairs, spread = _scale_from_baselines(reconstruction, pair_poses or {})
     if np.isfinite(baselines):

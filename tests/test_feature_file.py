@@ -29,6 +29,22 @@ def test_round_trip_keeps_every_field(blob_lf, tmp_path, descriptor_type):
     assert back.meta == {"note": "x"} and back.centre_view.dtype == np.uint8
 
 
+def test_file_is_a_deflated_npz_that_numpy_reads(blob_lf, tmp_path):
+    # Written at zlib level 1 (COMPRESSION_LEVEL): still an npz of deflated .npy
+    # members, named as numpy's savez_compressed names them (".npz" appended).
+    kps, desc = liff.LiFF.create().detectAndCompute(blob_lf, None)
+    save_features(tmp_path / "f", Features(kps, desc, centre_view(blob_lf)))
+    with zipfile.ZipFile(tmp_path / "f.npz") as archive:
+        infos = archive.infolist()
+    assert sorted(i.filename for i in infos) == ["centre_view.npy", "descriptors.npy",
+                                                "keypoints.npy", "meta.npy", "slopes.npy"]
+    assert all(i.compress_type == zipfile.ZIP_DEFLATED for i in infos)
+    described = next(i for i in infos if i.filename == "descriptors.npy")
+    assert described.compress_size < 0.8 * described.file_size
+    with np.load(tmp_path / "f.npz", allow_pickle=False) as data:
+        np.testing.assert_array_equal(data["descriptors"], desc)
+
+
 def test_no_features_round_trip(tmp_path):
     save_features(tmp_path / "e.npz", Features((), None))
     back = load_features(tmp_path / "e.npz")

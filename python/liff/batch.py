@@ -16,7 +16,8 @@ On a worker a task takes the worker's resources: LiFF runs one light field at a 
 per worker process with the worker's thread count (``liff.setNumThreads``) and a memory
 limit from the worker's (``setMemoryLimitMB``), so a light field too large for the
 worker is refused (``MemoryError`` in its outcome) or processed in less memory, rather
-than the worker being killed for exceeding its memory.
+than the worker being killed for exceeding its memory. The process keeps memory freed
+by one task for the next (:mod:`liff._allocator`).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields
 from typing import TYPE_CHECKING, List, NamedTuple, Optional, Sequence
 
+from . import _allocator
 from .outputs import atomic_output
 
 if TYPE_CHECKING:  # (an optional dependency: pip install "liff[dask]")
@@ -90,7 +92,6 @@ def run_task(task: Task) -> Outcome:
     outcome; an error reading, detecting or writing is in ``Outcome.error``, not raised."""
     from .cli.detect import detect_one
 
-    _reuse_freed_memory()
     with _ONE_AT_A_TIME, _worker_resources() as worker:
         start, cpu = time.perf_counter(), time.process_time()
         try:
@@ -111,65 +112,32 @@ def run_task(task: Task) -> Outcome:
 def _worker_resources():
     """On a Dask worker, LiFF's threads and memory limit from the worker's for the
     duration of a task (then restored: an in-process worker shares them with its
-    client); yields the worker's address, or '' elsewhere, where nothing changes."""
+    client); yields the worker's address, or '' elsewhere, where only the process's
+    allocator is set to keep freed memory (:mod:`liff._allocator`), as on a worker."""
     try:
         from distributed import get_worker
 
         worker = get_worker()
     except (ImportError, ValueError):  # not on a Dask worker
+        _allocator.reuse_freed_memory()
         yield ""
         return
-    import psutil
-
     from . import getNumThreads, setNumThreads
     from .cli import common
 
     threads, memory = getNumThreads(), common.memory_limit_mb
     setNumThreads(worker.state.nthreads)
     limit = worker.memory_manager.memory_limit
+    _allocator.reuse_freed_memory(limit)
     if limit:
-        held = psutil.Process().memory_info().rss
+        # What the process holds beyond its allocator's free memory, which the task reuses.
+        held = _allocator.held_bytes()
         common.memory_limit_mb = max(1, int((MEMORY_SHARE * limit - held) / 2**20))
     try:
         yield worker.address
     finally:
         setNumThreads(threads)
         common.memory_limit_mb = memory
-
-
-#: Allocations at least this large are mapped from the system, and freed memory beyond
-#: this much is returned to it (glibc's mallopt M_MMAP_THRESHOLD / M_TRIM_THRESHOLD).
-ALLOCATOR_THRESHOLD_BYTES = 32 * 2**20
-
-
-def _reuse_freed_memory() -> None:
-    """Lets the process's allocator reuse LiFF's freed slice buffers (once per process,
-    for every task: on a Dask worker, a local worker process, or here).
-
-    LiFF allocates each focal slice's scale space anew. Dask's nanny starts workers
-    with ``MALLOC_TRIM_THRESHOLD_=65536``, which also turns off glibc's adaptive mmap
-    threshold: then every buffer over 128 KiB is mapped from the system and unmapped
-    when freed, and a task spends its time on page faults (about 17% more processor
-    time on an Illum-size light field, docs/BENCHMARKS.md). Fixed thresholds of 32 MiB
-    (glibc's mallopt M_MMAP_THRESHOLD / M_TRIM_THRESHOLD; the adaptive threshold's own
-    ceiling) keep buffers up to that size in the process and return freed memory
-    beyond it, as Dask wants. Process-wide; nothing where the C library is not glibc."""
-    global _ALLOCATOR_SET
-    if _ALLOCATOR_SET:
-        return
-    _ALLOCATOR_SET = True
-    import ctypes
-
-    try:
-        mallopt = ctypes.CDLL("libc.so.6").mallopt
-    except (OSError, AttributeError):  # not glibc
-        return
-    m_trim_threshold, m_mmap_threshold = -1, -3  # <malloc.h>
-    mallopt(m_mmap_threshold, ALLOCATOR_THRESHOLD_BYTES)
-    mallopt(m_trim_threshold, ALLOCATOR_THRESHOLD_BYTES)
-
-
-_ALLOCATOR_SET = False
 
 
 def connect(client) -> "distributed.Client":

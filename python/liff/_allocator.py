@@ -1,0 +1,94 @@
+"""The C allocator of a process that runs detection tasks one after another (glibc).
+
+LiFF allocates a light field's buffers (the grey light field, focal slices, scale
+spaces) anew in every call. glibc returns freed memory to the system once more than
+M_TRIM_THRESHOLD of it sits at the top of the heap, and maps every allocation over
+M_MMAP_THRESHOLD from the system; either way the next call gets fresh pages, which the
+kernel faults in and zeroes one by one. On an Illum-size light field (11 x 11 views of
+376 x 541) that was 63,000 page faults and 17-20% of a one-thread detection's processor
+time, system time that a process keeping its freed memory does not spend
+(benchmarks/batch.py measures tasks; docs/BENCHMARKS.md, "Batches and Dask").
+Dask's nanny makes it worse: it starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``,
+which also turns off glibc's adaptive mmap threshold.
+
+So a task's process keeps freed memory for the next task, up to a bound: RETAIN_SHARE
+of the memory it may use (a Dask worker's limit, else the machine's) and at most
+RETAIN_MAX_BYTES. Memory so kept is reused by the next task, not added to it, and
+:func:`held_bytes` leaves it out of what the process holds. Nothing happens where the
+C library is not glibc.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+from typing import Optional
+
+#: Allocations at least this large are mapped from the system and unmapped when freed
+#: (glibc's M_MMAP_THRESHOLD; 32 MiB is the largest value glibc accepts).
+MMAP_THRESHOLD_BYTES = 32 * 2**20
+#: Freed memory a process keeps for its next task (glibc's M_TRIM_THRESHOLD): this share
+#: of the memory it may use...
+RETAIN_SHARE = 0.25
+#: ...and at most this much.
+RETAIN_MAX_BYTES = 2**30
+
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # <malloc.h>
+
+
+class _MallInfo2(ctypes.Structure):
+    """glibc's struct mallinfo2 (glibc 2.33 and later)."""
+
+    _fields_ = [(name, ctypes.c_size_t) for name in (
+        "arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks", "fsmblks", "uordblks",
+        "fordblks", "keepcost")]
+
+
+def _glibc() -> Optional[ctypes.CDLL]:
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt  # noqa: B018 (glibc, or another C library that has it)
+    except (OSError, AttributeError):
+        return None
+    return libc
+
+
+_SET = False
+
+
+def reuse_freed_memory(memory_bytes: Optional[int] = None) -> None:
+    """Keeps freed memory in this process for the next task (once per process; see the
+    module docstring): up to RETAIN_SHARE of ``memory_bytes`` (the memory the process
+    may use; the machine's when None) and RETAIN_MAX_BYTES, never under
+    MMAP_THRESHOLD_BYTES."""
+    global _SET
+    if _SET:
+        return
+    _SET = True
+    libc = _glibc()
+    if libc is None:
+        return
+    if not memory_bytes:
+        memory_bytes = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    retain = int(min(RETAIN_MAX_BYTES, RETAIN_SHARE * memory_bytes))
+    libc.mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)
+    libc.mallopt(_M_TRIM_THRESHOLD, max(MMAP_THRESHOLD_BYTES, retain))
+
+
+def free_heap_bytes() -> int:
+    """Bytes of the allocator's free memory (glibc's mallinfo2 ``fordblks``): memory this
+    process holds that its next allocations reuse; 0 where that is unknown."""
+    libc = _glibc()
+    mallinfo2 = getattr(libc, "mallinfo2", None)
+    if mallinfo2 is None:
+        return 0
+    mallinfo2.restype = _MallInfo2
+    return int(mallinfo2().fordblks)
+
+
+def held_bytes() -> int:
+    """Memory this process holds that a task cannot use: its resident size less the
+    allocator's free memory (:func:`free_heap_bytes`), at least 0."""
+    import psutil
+
+    return max(0, psutil.Process().memory_info().rss - free_heap_bytes())

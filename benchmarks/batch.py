@@ -7,30 +7,43 @@ Each light field (11x11 views of 376x541, uint8, as .npy) is one task: read, det
 write the .npz (liff.batch.run_task, what `liff detect` runs). In every round, the
 same tasks run on: one local worker with one LiFF thread; one with both cores; two
 local worker processes of one thread each (`liff detect --workers 2`); and a Dask
-LocalCluster of two one-thread worker processes (`--scheduler`), started once before
-the rounds. The load of this shared machine drifts, so rounds interleave the set-ups
-and the figures are medians over rounds; the load average before each run is printed.
+LocalCluster of two one-thread worker processes (`--scheduler`), with Dask's defaults
+and with its workers started with MALLOC_ARENA_MAX=1. Each cluster is started before its run
+and closed after (outside the timings), so that no idle Dask process shares the
+machine with the other set-ups. The load of this shared machine drifts, so rounds
+interleave the set-ups and the figures are medians over rounds; the load average
+before each run is printed.
 
-Besides wall times, each task reports its own seconds and CPU seconds (liff.batch's
-Outcome). A set-up's gap per task, wall x workers / tasks - mean task seconds, is the
-time a worker spent not running a task (scheduling, transfers, the tail of the run);
-Dask's overhead per task is its gap less the local pool's, in the same round.
+First, the time and size of one light field's feature file as `liff detect` writes it,
+against numpy's savez_compressed of the same arrays; and the processor time and page
+faults of detections in a process that keeps freed memory for the next light field
+(liff._allocator, as every task's process does) against glibc's defaults. Besides wall times, each task
+reports its own seconds and CPU seconds (liff.batch's Outcome). A set-up's gap per task, wall x workers / tasks - mean task seconds, is the
+time a worker spent not running a task (scheduling, transfers, the tail of the run).
+Dask's overhead per task is the wall-time difference to the local pool in the same
+round, times workers / tasks: all it costs, its processes' own work competing with the
+tasks included; printed beside it, the part between tasks (the gaps' difference) and
+the CPU time the task's process spent beyond the pool's (Dask's own threads).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
+from contextlib import ExitStack
 
 import numpy as np
 
 import liff
-from liff import batch
+from liff import batch, feature_file
 from liff.cli import common
+from liff.keypoint_rows import keypoints_to_rows
 
 sys.path.insert(0, os.path.dirname(__file__))
 from lightfields import ILLUM_SHAPE, layered_light_field  # noqa: E402
@@ -64,6 +77,71 @@ def liff_seconds(path: str, threads: int, repeats: int = 3) -> float:
     return best
 
 
+def feature_file_costs(path: str, folder: str, repeats: int = 3) -> None:
+    """Prints the time and size of one light field's feature file as `liff detect`
+    writes it (liff.feature_file.save_features, zlib level COMPRESSION_LEVEL) against
+    numpy's savez_compressed (level 6) of the same arrays."""
+    lf = np.load(path)
+    keypoints, descriptors = liff.LiFF.create().detectAndCompute(lf, None)
+    features = feature_file.Features(tuple(keypoints), descriptors, feature_file.centre_view(lf))
+    arrays = dict(keypoints=keypoints_to_rows(keypoints)[:, :6],
+                  slopes=features.slopes, descriptors=descriptors,
+                  centre_view=features.centre_view)
+    writers = {f"save_features (zlib level {feature_file.COMPRESSION_LEVEL})":
+               lambda target: feature_file.save_features(target, features),
+               "numpy savez_compressed (zlib level 6)":
+               lambda target: np.savez_compressed(target, **arrays)}
+    print(f"feature file of one light field ({len(keypoints)} features), best of {repeats}:")
+    for name, write in writers.items():
+        target = os.path.join(folder, "cost.npz")
+        best = np.inf
+        for _ in range(repeats):
+            start = time.perf_counter()
+            write(target)
+            best = min(best, time.perf_counter() - start)
+        print(f"  {name}: {best:.3f} s, {os.path.getsize(target) / 2**20:.2f} MiB")
+
+
+# One-thread detections of a light field in a fresh process, the first to warm up: CPU
+# seconds (user, system) and page faults of each later one, as JSON.
+_ALLOCATOR_SCRIPT = """
+import json, resource, sys
+import numpy as np
+import liff
+from liff import _allocator
+if sys.argv[2] == "kept":
+    _allocator.reuse_freed_memory()
+lf = np.load(sys.argv[1])
+liff.setNumThreads(1)
+detector = liff.LiFF.create()
+detector.detectAndCompute(lf, None)
+calls = []
+for _ in range(3):
+    before = resource.getrusage(resource.RUSAGE_SELF)
+    detector.detectAndCompute(lf, None)
+    after = resource.getrusage(resource.RUSAGE_SELF)
+    calls.append((after.ru_utime - before.ru_utime, after.ru_stime - before.ru_stime,
+                  after.ru_minflt - before.ru_minflt))
+print(json.dumps(calls))
+"""
+
+
+def allocator_costs(path: str) -> None:
+    """Prints what glibc's defaults cost a process that detects light field after light
+    field against one whose freed memory is kept (liff._allocator), in fresh processes,
+    alternating: median user and system CPU seconds and page faults per detection."""
+    costs = {"glibc defaults": [], "freed memory kept": []}
+    for _ in range(2):
+        for name, mode in (("glibc defaults", "default"), ("freed memory kept", "kept")):
+            out = subprocess.run([sys.executable, "-c", _ALLOCATOR_SCRIPT, path, mode],
+                                 capture_output=True, text=True, check=True)
+            costs[name] += json.loads(out.stdout.strip().splitlines()[-1])
+    print("one-thread detections in one process (after a first one), median of 6:")
+    for name, calls in costs.items():
+        user, system, faults = (statistics.median(c[i] for c in calls) for i in range(3))
+        print(f"  {name}: user {user:.3f} s, system {system:.3f} s, {faults:.0f} page faults")
+
+
 def tasks_into(paths: list, folder: str) -> list:
     parameters = {p.name: p.default for p in liff.PARAMETERS}
     return [batch.Task(p, os.path.join(folder, os.path.basename(p)[:-4] + ".npz"), None, {},
@@ -74,7 +152,7 @@ def timed_run(name: str, tasks: list, client) -> tuple:
     """(wall seconds, task seconds, task CPU seconds) of one set-up over ``tasks``;
     checks that every task succeeded."""
     start = time.perf_counter()
-    if name == "dask, 2 workers x 1 thread":
+    if name.startswith("dask"):
         outcomes = batch.run(tasks, client)
     else:
         workers, threads = {"local, 1 worker x 1 thread": (1, 1), "local, 1 worker x 2 threads": (1, 2),
@@ -89,10 +167,16 @@ def timed_run(name: str, tasks: list, client) -> tuple:
 
 
 SETUPS = ("local, 1 worker x 1 thread", "local, 1 worker x 2 threads",
-          "local, 2 workers x 1 thread", "dask, 2 workers x 1 thread")
+          "local, 2 workers x 1 thread", "dask, 2 workers x 1 thread",
+          "dask, 2 workers x 1 thread, MALLOC_ARENA_MAX=1")
+#: Dask configuration of each Dask set-up's cluster: Dask's defaults, and workers started
+#: with MALLOC_ARENA_MAX=1 (a Dask task runs in a thread, whose own glibc arena returns
+#: freed memory that the process's main arena keeps: liff._allocator).
+DASK_CONFIG = {SETUPS[3]: {},
+               SETUPS[4]: {"distributed.nanny.pre-spawn-environ.MALLOC_ARENA_MAX": 1}}
 
 
-WORKERS = {SETUPS[0]: 1, SETUPS[1]: 1, SETUPS[2]: 2, SETUPS[3]: 2}
+WORKERS = {SETUPS[0]: 1, SETUPS[1]: 1, SETUPS[2]: 2, SETUPS[3]: 2, SETUPS[4]: 2}
 
 
 def report(runs: dict, count: int, liff_1: float, liff_2: float, startup: float) -> None:
@@ -112,24 +196,36 @@ def report(runs: dict, count: int, liff_1: float, liff_2: float, startup: float)
         rounds = ", ".join(f"{r[0]:.1f} ({r[3]:.1f})" for r in runs[name])
         print(f"| {name} | {median[name]:.1f} | {count / median[name]:.2f} | "
               f"{base / median[name]:.2f}x | {cpu[name]:.2f} | {gap[name]:.3f} | {rounds} |")
-    pool, dask = SETUPS[2], SETUPS[3]
-    per_round = [(d[0] - p[0]) * 2 / count for d, p in zip(runs[dask], runs[pool])]
-    overhead = statistics.median(d[0] * 2 / count - d[1] / count - (p[0] * 2 / count - p[1] / count)
-                                 for d, p in zip(runs[dask], runs[pool]))
+    pool = SETUPS[2]
     print(f"\nLiFF's own time per light field (detectAndCompute, best of 3): {liff_1:.3f} s on "
           f"1 thread, {liff_2:.3f} s on 2")
     print(f"throughput, 2 local workers / 1 worker (1 thread each) = {base / median[pool]:.2f}x "
           f"(target >= 1.8); / 1 worker on both cores = {median[SETUPS[1]] / median[pool]:.2f}x")
-    print(f"Dask overhead per task (its gap less the local pool's, median over rounds) = "
-          f"{overhead * 1000:.0f} ms = {100 * overhead / liff_1:.1f}% of LiFF's own time (target "
-          f"<= 5%); wall-time difference per task, by round: "
-          f"{', '.join(f'{1000 * d:.0f} ms' for d in per_round)}; LocalCluster start-up "
-          f"{startup:.1f} s (once per run)")
+    overheads = {}
+    for dask in SETUPS[3:]:
+        # Per task, against the local pool of as many one-thread workers in the same round:
+        # the wall-time difference (all of Dask's cost: scheduling, and its processes'
+        # own work competing with the tasks; the noisiest), the part of it between tasks
+        # (gaps), and the CPU time the task's process spent beyond the pool's (Dask's
+        # threads in the worker process: event loop, profiler).
+        pairs = list(zip(runs[dask], runs[pool]))
+        per_round = [(d[0] - p[0]) * 2 / count for d, p in pairs]
+        gaps = [(d[0] * 2 - d[1] - (p[0] * 2 - p[1])) / count for d, p in pairs]
+        cpus = [(d[2] - p[2]) / count for d, p in pairs]
+        overheads[dask] = statistics.median(per_round)
+        print(f"{dask}: overhead per task = {1000 * overheads[dask]:.0f} ms = "
+              f"{100 * overheads[dask] / liff_1:.1f}% of LiFF's own time (target <= 5%; "
+              f"wall-time difference to the local pool, median over rounds; by round "
+              f"{', '.join(f'{1000 * d:.0f}' for d in per_round)} ms); between tasks "
+              f"{', '.join(f'{1000 * g:.0f}' for g in gaps)} ms; CPU in the task's process "
+              f"beyond the pool's {', '.join(f'{1000 * c:.0f}' for c in cpus)} ms")
+    print(f"LocalCluster start-up {startup:.1f} s (median; once per run, outside the timings)")
+    overhead = overheads[SETUPS[4]]
     per_light_field = cpu[pool]  # CPU seconds per light field, reading and writing included
     print(f"\nmeasured cost: {per_light_field:.2f} CPU seconds per light field (read, detect, "
           f"write; one thread); the paper's {PAPER_LIGHT_FIELDS} light fields, "
-          f"{CORES_PER_MACHINE} cores per machine, one one-thread Dask worker per core, Dask's "
-          "overhead included, files on storage that keeps up:")
+          f"{CORES_PER_MACHINE} cores per machine, one one-thread Dask worker per core (MALLOC_"
+          "ARENA_MAX=1), Dask's overhead included, files on storage that keeps up:")
     for machines in (1, 8, 64):
         seconds = PAPER_LIGHT_FIELDS * (per_light_field + max(overhead, 0)) / (
             machines * CORES_PER_MACHINE)
@@ -141,25 +237,38 @@ def main(argv=None) -> int:
     parser.add_argument("--count", type=int, default=24, help="light fields (default 24)")
     parser.add_argument("--rounds", type=int, default=3, help="rounds (default 3)")
     args = parser.parse_args(argv)
+    import dask
     import distributed
 
     with tempfile.TemporaryDirectory() as work:
         paths = write_inputs(work, args.count)
+        liff.setNumThreads(1)
+        feature_file_costs(paths[0], work)
+        allocator_costs(paths[0])
         liff_1, liff_2 = liff_seconds(paths[0], 1), liff_seconds(paths[0], 2)
-        start = time.perf_counter()
-        with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                      dashboard_address=":0") as cluster, \
-                distributed.Client(cluster) as client:
-            startup = time.perf_counter() - start
-            runs = {name: [] for name in SETUPS}
-            for r in range(args.rounds):
-                for i, name in enumerate(SETUPS):
-                    out = os.path.join(work, f"out{r}{i}")
+        runs = {name: [] for name in SETUPS}
+        startups = []
+        for r in range(args.rounds):
+            for i, name in enumerate(SETUPS):
+                out = os.path.join(work, f"out{r}{i}")
+                with ExitStack() as stack:
+                    client = None
+                    if name.startswith("dask"):
+                        # A cluster only while its set-up runs: idle Dask processes
+                        # (heartbeats, the nanny's memory monitor) would take CPU from
+                        # the local set-ups' second worker, not from the first's.
+                        start = time.perf_counter()
+                        stack.enter_context(dask.config.set(DASK_CONFIG[name]))
+                        cluster = stack.enter_context(distributed.LocalCluster(
+                            n_workers=2, threads_per_worker=1, processes=True,
+                            dashboard_address=":0"))
+                        client = stack.enter_context(distributed.Client(cluster))
+                        startups.append(time.perf_counter() - start)
                     load = os.getloadavg()[0]
                     runs[name].append(timed_run(name, tasks_into(paths, out), client) + (load,))
-                    print(f"round {r + 1}, {name}: {runs[name][-1][0]:.1f} s (load average "
-                          f"{load:.1f} before)", flush=True)
-    report(runs, args.count, liff_1, liff_2, startup)
+                print(f"round {r + 1}, {name}: {runs[name][-1][0]:.1f} s (load average "
+                      f"{load:.1f} before)", flush=True)
+    report(runs, args.count, liff_1, liff_2, statistics.median(startups))
     return 0
 
 

@@ -17,7 +17,8 @@ before each run is printed.
 First, the time and size of one light field's feature file as `liff detect` writes it,
 against numpy's savez_compressed of the same arrays; and the processor time and page
 faults of detections in a process that keeps freed memory for the next light field
-(liff._allocator, as every task's process does) against glibc's defaults. Besides wall times, each task
+(liff._allocator, as every task's process does) against glibc's defaults, in the main
+thread and in another one (as a Dask task runs). Besides wall times, each task
 reports its own seconds and CPU seconds (liff.batch's Outcome). A set-up's gap per task, wall x workers / tasks - mean task seconds, is the
 time a worker spent not running a task (scheduling, transfers, the tail of the run).
 Dask's overhead per task is the wall-time difference to the local pool in the same
@@ -102,10 +103,11 @@ def feature_file_costs(path: str, folder: str, repeats: int = 3) -> None:
         print(f"  {name}: {best:.3f} s, {os.path.getsize(target) / 2**20:.2f} MiB")
 
 
-# One-thread detections of a light field in a fresh process, the first to warm up: CPU
-# seconds (user, system) and page faults of each later one, as JSON.
+# One-thread detections of a light field in a fresh process, the first to warm up, in
+# the main thread or in another one (as a Dask task runs): CPU seconds (user, system)
+# and page faults of each later one, as JSON.
 _ALLOCATOR_SCRIPT = """
-import json, resource, sys
+import json, resource, sys, threading
 import numpy as np
 import liff
 from liff import _allocator
@@ -114,14 +116,21 @@ if sys.argv[2] == "kept":
 lf = np.load(sys.argv[1])
 liff.setNumThreads(1)
 detector = liff.LiFF.create()
-detector.detectAndCompute(lf, None)
 calls = []
-for _ in range(3):
-    before = resource.getrusage(resource.RUSAGE_SELF)
+def detect():
     detector.detectAndCompute(lf, None)
-    after = resource.getrusage(resource.RUSAGE_SELF)
-    calls.append((after.ru_utime - before.ru_utime, after.ru_stime - before.ru_stime,
-                  after.ru_minflt - before.ru_minflt))
+    for _ in range(3):
+        before = resource.getrusage(resource.RUSAGE_THREAD)
+        detector.detectAndCompute(lf, None)
+        after = resource.getrusage(resource.RUSAGE_THREAD)
+        calls.append((after.ru_utime - before.ru_utime, after.ru_stime - before.ru_stime,
+                      after.ru_minflt - before.ru_minflt))
+if sys.argv[3] == "thread":
+    worker = threading.Thread(target=detect)
+    worker.start()
+    worker.join()
+else:
+    detect()
 print(json.dumps(calls))
 """
 
@@ -129,11 +138,16 @@ print(json.dumps(calls))
 def allocator_costs(path: str) -> None:
     """Prints what glibc's defaults cost a process that detects light field after light
     field against one whose freed memory is kept (liff._allocator), in fresh processes,
-    alternating: median user and system CPU seconds and page faults per detection."""
-    costs = {"glibc defaults": [], "freed memory kept": []}
+    alternating, in the main thread and in another thread (where a Dask task runs):
+    median user and system CPU seconds and page faults per detection."""
+    setups = [(f"{memory}, {where} thread", mode, where)
+              for where in ("main", "another")
+              for memory, mode in (("glibc defaults", "default"), ("freed memory kept", "kept"))]
+    costs = {name: [] for name, _, _ in setups}
     for _ in range(2):
-        for name, mode in (("glibc defaults", "default"), ("freed memory kept", "kept")):
-            out = subprocess.run([sys.executable, "-c", _ALLOCATOR_SCRIPT, path, mode],
+        for name, mode, where in setups:
+            out = subprocess.run([sys.executable, "-c", _ALLOCATOR_SCRIPT, path, mode,
+                                  "thread" if where == "another" else "main"],
                                  capture_output=True, text=True, check=True)
             costs[name] += json.loads(out.stdout.strip().splitlines()[-1])
     print("one-thread detections in one process (after a first one), median of 6:")
@@ -220,12 +234,12 @@ def report(runs: dict, count: int, liff_1: float, liff_2: float, startup: float)
               f"{', '.join(f'{1000 * g:.0f}' for g in gaps)} ms; CPU in the task's process "
               f"beyond the pool's {', '.join(f'{1000 * c:.0f}' for c in cpus)} ms")
     print(f"LocalCluster start-up {startup:.1f} s (median; once per run, outside the timings)")
-    overhead = overheads[SETUPS[4]]
+    overhead = overheads[SETUPS[3]]  # Dask's defaults: `dask worker ADDRESS`
     per_light_field = cpu[pool]  # CPU seconds per light field, reading and writing included
     print(f"\nmeasured cost: {per_light_field:.2f} CPU seconds per light field (read, detect, "
           f"write; one thread); the paper's {PAPER_LIGHT_FIELDS} light fields, "
-          f"{CORES_PER_MACHINE} cores per machine, one one-thread Dask worker per core (MALLOC_"
-          "ARENA_MAX=1), Dask's overhead included, files on storage that keeps up:")
+          f"{CORES_PER_MACHINE} cores per machine, one one-thread Dask worker per core, "
+          "Dask's overhead included, files on storage that keeps up:")
     for machines in (1, 8, 64):
         seconds = PAPER_LIGHT_FIELDS * (per_light_field + max(overhead, 0)) / (
             machines * CORES_PER_MACHINE)

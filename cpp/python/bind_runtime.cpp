@@ -4,6 +4,7 @@
 #include <string>
 
 #include "bindings.hpp"
+#include "light_field.hpp"
 #include "profile.hpp"
 
 namespace liff {
@@ -19,6 +20,13 @@ void BindThreads(py::module_& m) {
       "value restores the default; 0 or 1 runs serially.");
   m.def("getNumThreads", &cv::getNumThreads,
         "Number of threads LiFF's core uses (see setNumThreads).");
+}
+
+void BindAllocation(py::module_& m) {
+  m.def("_set_view_by_view_allocation", &detail::setViewByViewAllocation, "enabled"_a,
+        "liff._allocator only: allocate a converted light field view by view (for a\n"
+        "process that keeps freed memory) or as one buffer (the default); returns the\n"
+        "previous setting.");
 }
 
 void BindVersion(py::module_& m) {

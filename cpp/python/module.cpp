@@ -29,5 +29,6 @@ PYBIND11_MODULE(_core, m) {
   liff::python::BindLiFF(m);
   liff::python::BindThreads(m);
   liff::python::BindVersion(m);
+  liff::python::BindAllocation(m);
   liff::python::BindProfiling(m);
 }

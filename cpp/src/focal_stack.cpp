@@ -97,11 +97,11 @@ struct SlopeShifts {
 // rows [yBegin, yEnd) of
 //   out_k(x, y) = sum_t sum_j wy_tj * H_kt(y + whole_t + j, x),
 //   H_kt(r, x) = sum_s sum_i wx_si * D(t, s, r, x + whole_s + i),
-// unnormalised, for D = `views` (a LightField-layout Mat) and slope k, into outs[k]'s
+// unnormalised, for D = `views` (LightField layout: one Mat per view) and slope k, into outs[k]'s
 // rows from y - firstOutRow. Each source row is read once for all slopes while it is
 // in cache (the pass is bound by reading the light field), and each slope's sums run
 // in the same order as for that slope alone. Only in-view taps count.
-void shiftAndSumRows(const LightField& lf, const cv::Mat& views,
+void shiftAndSumRows(const LightField& lf, const std::vector<cv::Mat>& views,
                      const std::vector<SlopeShifts>& shifts, int yBegin, int yEnd,
                      std::vector<float>& rows, const std::vector<cv::Mat*>& outs,
                      int firstOutRow) {
@@ -129,7 +129,7 @@ void shiftAndSumRows(const LightField& lf, const cv::Mat& views,
     rows.assign(size, 0.f);
     for (int r = r0; r < r1; ++r)
       for (int s = 0; s < S; ++s) {
-        const float* src = views.ptr<float>((t * S + s) * V + r);
+        const float* src = views[size_t(t) * S + s].ptr<float>(r);
         for (int k = 0; k < K; ++k)
           if (r >= first[k] && r < last[k])
             accumulateRow(src, U, shifts[k].x[s], rows.data() + block[k] + size_t(r - first[k]) * U);

@@ -4,9 +4,12 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -57,15 +60,14 @@ LIFF_HOT_LOOP int firstNonFinite(const float* row, int n) {
   return -1;
 }
 
-// Throws naming the first view and pixel of `data` (LightField row layout) that is
-// NaN or infinite; views are checked in parallel.
-void checkFinite(const cv::Mat& data, const LightField& lf, const char* what) {
-  CV_Assert(data.type() == CV_32F);
-  std::vector<int> badRow(size_t(lf.T) * lf.S, -1), badCol(size_t(lf.T) * lf.S, -1);
-  cv::parallel_for_(cv::Range(0, lf.T * lf.S), [&](const cv::Range& range) {
+// Throws naming the first view and pixel of `data` (one Mat per view, LightField
+// layout) that is NaN or infinite; views are checked in parallel.
+void checkFinite(const std::vector<cv::Mat>& data, const LightField& lf, const char* what) {
+  std::vector<int> badRow(data.size(), -1), badCol(data.size(), -1);
+  cv::parallel_for_(cv::Range(0, int(data.size())), [&](const cv::Range& range) {
     for (int v = range.start; v < range.end; ++v)
       for (int y = 0; y < lf.V; ++y) {
-        const int x = firstNonFinite(data.ptr<float>(v * lf.V + y), lf.U);
+        const int x = firstNonFinite(data[v].ptr<float>(y), lf.U);
         if (x >= 0) {
           badRow[v] = y;
           badCol[v] = x;
@@ -129,54 +131,76 @@ LightField checkLightField(const cv::Mat& input) {
 }
 
 namespace {
+std::atomic<bool> viewByView{false};  // setViewByViewAllocation
+}  // namespace
 
-// Whether the grey light field is the input's own data: one float channel, continuous
-// (a 4-D input that is not is first copied into a continuous one, then used as is).
+bool setViewByViewAllocation(bool enabled) { return viewByView.exchange(enabled); }
+
+void LightField::allocate(bool withWeights) {
+  const size_t count = size_t(T) * S;
+  views.resize(count);
+  weights.resize(withWeights ? count : 0);
+  if (viewByView) {
+    for (size_t v = 0; v < count; ++v) {
+      views[v].create(V, U, CV_32F);
+      if (withWeights) weights[v].create(V, U, CV_32F);
+    }
+    return;
+  }
+  // One buffer, views (then weights) one after another; each view's header shares it.
+  const cv::Mat buffer(int((withWeights ? 2 : 1) * count), V * U, CV_32F);
+  for (size_t v = 0; v < count; ++v) {
+    views[v] = buffer.row(int(v)).reshape(1, V);
+    if (withWeights) weights[v] = buffer.row(int(count + v)).reshape(1, V);
+  }
+}
+
+namespace {
+
+// View (t, s) of a checked input as a V x U Mat of the input's type, sharing its data:
+// in OpenCV the last axis of a Mat is always dense, so a view of a 4-D Mat is rows of
+// U samples step[2] bytes apart, continuous or not.
+cv::Mat inputView(const cv::Mat& input, int t, int s) {
+  if (input.dims == 2) return input;
+  const int index[4] = {t, s, 0, 0};
+  return cv::Mat(input.size[2], input.size[3], input.type(),
+                 const_cast<uchar*>(input.ptr(index)), input.step[2]);
+}
+
+// Whether the grey light field is the input's own data: one float channel whose views
+// have continuous rows (the views themselves need not be adjacent).
 bool usedAsIs(const cv::Mat& input) {
-  return input.channels() == 1 && input.depth() == CV_32F &&
-         (input.isContinuous() || input.dims == 4);
+  if (input.channels() != 1 || input.depth() != CV_32F) return false;
+  return input.dims == 2 ? input.isContinuous()
+                         : input.step[2] == size_t(input.size[3]) * sizeof(float);
 }
 
 }  // namespace
 
 double conversionBytes(const cv::Mat& input, const LightField& lf) {
+  if (usedAsIs(input)) return 0;
   const double samples = double(lf.T) * lf.S * lf.V * lf.U;
-  const int channels = input.channels();
-  const bool inPlace = usedAsIs(input);
-  const bool copied = input.dims == 4 && !input.isContinuous();  // made continuous first
-  const double converted = inPlace ? 0 : samples * sizeof(float) * (channels % 2 == 0 ? 2 : 1);
-  return converted + (copied ? samples * double(input.elemSize()) : 0);
+  return samples * sizeof(float) * (input.channels() % 2 == 0 ? 2 : 1);
 }
 
 void convertLightField(const cv::Mat& input, LightField& lf) {
-  const int dims = input.dims, depth = input.depth(), channels = input.channels();
+  const int depth = input.depth(), channels = input.channels();
   const bool hasAlpha = channels == 2 || channels == 4;
-  // View the input as (T*S*V) rows of U pixels, with its channels. A 2-D Mat may
-  // have any row step; a 4-D sub-array that is not continuous is copied first.
-  cv::Mat rows2d;
-  if (dims == 2) {
-    rows2d = input;
-  } else {
-    const cv::Mat continuous = input.isContinuous() ? input : input.clone();
-    const int rowsU[2] = {lf.T * lf.S * lf.V, lf.U};
-    rows2d = continuous.reshape(0, 2, rowsU);  // shares data and reference count
-  }
+  const int views = lf.T * lf.S;
 
-  cv::Mat grey, weights;
   if (usedAsIs(input)) {
-    grey = rows2d;  // no copy: we never write to it
+    lf.views.resize(views);
+    for (int v = 0; v < views; ++v) lf.views[v] = inputView(input, v / lf.S, v % lf.S);
   } else {
+    lf.allocate(hasAlpha);
     // Convert view by view, so a colour or integer light field never exists as a
     // whole in float colour.
-    grey.create(lf.T * lf.S * lf.V, lf.U, CV_32F);
-    if (hasAlpha) weights.create(grey.size(), CV_32F);
     const double scale = unitScale(depth);
-    cv::parallel_for_(cv::Range(0, lf.T * lf.S), [&](const cv::Range& range) {
+    cv::parallel_for_(cv::Range(0, views), [&](const cv::Range& range) {
       cv::Mat converted;
       for (int v = range.start; v < range.end; ++v) {
-        const cv::Range rows(v * lf.V, (v + 1) * lf.V);
-        const cv::Mat src = rows2d.rowRange(rows);
-        cv::Mat dst = grey.rowRange(rows);
+        const cv::Mat src = inputView(input, v / lf.S, v % lf.S);
+        cv::Mat& dst = lf.views[v];
         if (channels == 1) {
           src.convertTo(dst, CV_32F, scale);
           continue;
@@ -189,10 +213,7 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
         if (channels == 2) cv::extractChannel(colour, dst, 0);
         if (channels == 3) cv::cvtColor(colour, dst, cv::COLOR_BGR2GRAY);
         if (channels == 4) cv::cvtColor(colour, dst, cv::COLOR_BGRA2GRAY);
-        if (hasAlpha) {
-          cv::Mat alpha = weights.rowRange(rows);
-          cv::extractChannel(colour, alpha, channels - 1);
-        }
+        if (hasAlpha) cv::extractChannel(colour, lf.weights[v], channels - 1);
       }
     });
   }
@@ -200,31 +221,32 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
   if (depth == CV_32F || depth == CV_64F) {
     // For 64F input a finite value can still overflow float; check the converted
     // data, view by view in parallel, and report the first bad sample.
-    checkFinite(grey, lf, "value");
-    if (hasAlpha) checkFinite(weights, lf, "alpha (weight)");
+    checkFinite(lf.views, lf, "value");
+    if (hasAlpha) checkFinite(lf.weights, lf, "alpha (weight)");
   }
   if (hasAlpha) {
-    double minWeight = 0, maxWeight = 0;
-    cv::minMaxLoc(weights, &minWeight, &maxWeight);
+    double minWeight = std::numeric_limits<double>::infinity(), maxWeight = -minWeight;
+    for (const cv::Mat& weight : lf.weights) {
+      double lo = 0, hi = 0;
+      cv::minMaxLoc(weight, &lo, &hi);
+      minWeight = std::min(minWeight, lo);
+      maxWeight = std::max(maxWeight, hi);
+    }
     if (minWeight < 0)
       CV_Error(cv::Error::StsBadArg,
                cv::format("LiFF: the light field's alpha channel holds a negative weight "
                           "(%g); expected per-sample validity weights >= 0", minWeight));
     lf.maxWeight = float(maxWeight);
     if (minWeight == maxWeight && maxWeight == 1.0) {
-      weights.release();  // all samples fully valid: the unweighted focal stack is the same
+      lf.weights.clear();  // all samples fully valid: the unweighted focal stack is the same
     } else {
-      // Premultiply (views hold w * L) view by view; `grey` is our own buffer here.
-      cv::parallel_for_(cv::Range(0, lf.T * lf.S), [&](const cv::Range& range) {
-        for (int v = range.start; v < range.end; ++v) {
-          cv::Mat view = grey.rowRange(v * lf.V, (v + 1) * lf.V);
-          cv::multiply(view, weights.rowRange(v * lf.V, (v + 1) * lf.V), view);
-        }
+      // Premultiply (views hold w * L) view by view; the views are our own buffers here.
+      cv::parallel_for_(cv::Range(0, views), [&](const cv::Range& range) {
+        for (int v = range.start; v < range.end; ++v)
+          cv::multiply(lf.views[v], lf.weights[v], lf.views[v]);
       });
     }
   }
-  lf.weights = weights;
-  lf.views = grey;
 }
 
 LightField decimate(const LightField& lf, int factor) {
@@ -234,20 +256,16 @@ LightField decimate(const LightField& lf, int factor) {
   small.V = lf.V / factor;
   small.U = lf.U / factor;
   CV_Assert(factor >= 1 && small.V >= 1 && small.U >= 1);
-  const int views = lf.T * lf.S;
-  small.views.create(views * small.V, small.U, CV_32F);
-  if (!lf.weights.empty()) small.weights.create(small.views.size(), CV_32F);
-  auto shrink = [&](const cv::Mat& from, cv::Mat& to, int v) {
+  small.allocate(!lf.weights.empty());
+  auto shrink = [&](const cv::Mat& from, cv::Mat& to) {
     // The whole factor x factor blocks only (a ragged edge is dropped).
-    const cv::Mat view = from.rowRange(v * lf.V, v * lf.V + small.V * factor)
-                             .colRange(0, small.U * factor);
-    cv::Mat out = to.rowRange(v * small.V, (v + 1) * small.V);
-    cv::resize(view, out, out.size(), 0, 0, cv::INTER_AREA);
+    const cv::Mat view = from.rowRange(0, small.V * factor).colRange(0, small.U * factor);
+    cv::resize(view, to, to.size(), 0, 0, cv::INTER_AREA);
   };
-  cv::parallel_for_(cv::Range(0, views), [&](const cv::Range& range) {
+  cv::parallel_for_(cv::Range(0, int(small.views.size())), [&](const cv::Range& range) {
     for (int v = range.start; v < range.end; ++v) {
-      shrink(lf.views, small.views, v);
-      if (!lf.weights.empty()) shrink(lf.weights, small.weights, v);
+      shrink(lf.views[v], small.views[v]);
+      if (!lf.weights.empty()) shrink(lf.weights[v], small.weights[v]);
     }
   });
   small.maxWeight = lf.maxWeight;  // averages never exceed it (the test is relative)

@@ -3,28 +3,43 @@
 
 #include <opencv2/core.hpp>
 
+#include <vector>
+
 namespace liff {
 namespace detail {
 
 /// A grey light field L(t, s, v, u) in float, values nominally in [0, 1].
-/// `views` is one continuous CV_32F Mat of (T * S * V) rows by U columns:
-/// view (t, s) is rows [(t * S + s) * V, (t * S + s + 1) * V).
+/// View (t, s) is views[t * S + s]: V x U CV_32F with continuous rows, a header into
+/// the caller's data or into the buffer(s) allocate() made (setViewByViewAllocation).
 /// When the input carried an alpha channel, `weights` (same layout) holds each
 /// sample's validity weight w >= 0 and `views` holds w * L (premultiplied), so the
 /// focal stack is sum(w L) / sum(w); otherwise `weights` is empty (all weights 1).
 struct LightField {
   int T = 0, S = 0, V = 0, U = 0;
-  cv::Mat views;
-  cv::Mat weights;
+  std::vector<cv::Mat> views;
+  std::vector<cv::Mat> weights;
   /// Largest weight (1 without alpha). Only ratios of weights matter, so the focal
   /// stack's "no valid sample reaches this pixel" test is relative to it.
   float maxWeight = 1.f;
 
-  const float* view(int t, int s) const { return views.ptr<float>((t * S + s) * V); }
-  cv::Mat viewMat(int t, int s) const { return views.rowRange((t * S + s) * V, (t * S + s + 1) * V); }
+  const float* view(int t, int s) const { return views[size_t(t) * S + s].ptr<float>(); }
+  const cv::Mat& viewMat(int t, int s) const { return views[size_t(t) * S + s]; }
   cv::Size viewSize() const { return cv::Size(U, V); }
+  /// Allocates every view (and, when `withWeights`, every weight map) as V x U
+  /// CV_32F, uninitialised, in the calling thread: one buffer, or one per view.
+  void allocate(bool withWeights);
 };
 
+/// How LightField::allocate lays out a converted light field, for the whole process.
+/// By default one buffer: glibc maps a large one from the system and unmaps it when
+/// freed, apart from the heap, whose freed top glibc's defaults return to the system
+/// (views in the heap: 64,000 page faults per one-thread detection of an Illum-size
+/// light field in a process with glibc's defaults, against 54,000). With `enabled`, one
+/// allocation per view, which a process that keeps freed memory (liff._allocator)
+/// reuses from call to call in any thread; one buffer larger than a thread arena's heap
+/// (64 MiB) would be mapped anew on every call, 24,000 page faults per detection in a
+/// Dask task (docs/BATCH.md). Returns the previous setting.
+bool setViewByViewAllocation(bool enabled);
 /// Validates a stacked light field Mat (4-D {T, S, V, U} or 2-D {V, U}; 1 (grey),
 /// 2 (grey + alpha), 3 (BGR) or 4 (BGRA) channels; 8U, 16U, 32F or 64F) and fills in
 /// the sizes, no data yet; throws cv::Exception (StsBadArg / StsBadSize) naming what
@@ -32,8 +47,8 @@ struct LightField {
 LightField checkLightField(const cv::Mat& input);
 /// Converts a checked input to grey float in lf.views, with the alpha channel (scaled
 /// like the values) as lf.weights; alpha that is 1 everywhere is dropped (same result,
-/// less work). Never modifies the input; a continuous grey CV_32F input is used
-/// without copying. Throws for NaN / infinite values or negative alpha.
+/// less work). Never modifies the input; a grey CV_32F input whose rows are
+/// continuous within each view is used without copying. Throws for NaN / infinite values or negative alpha.
 void convertLightField(const cv::Mat& input, LightField& lf);
 /// Bytes convertLightField will allocate for a checked input (0 when it can use the
 /// input's data as it is).

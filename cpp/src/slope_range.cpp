@@ -237,7 +237,7 @@ double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope,
       if (x < 0 || y < 0 || x > lf.U - 1 || y > lf.V - 1) return -1;
       const float* view = lf.view(t, s);
       const float* alpha =
-          lf.weights.empty() ? nullptr : lf.weights.ptr<float>((t * lf.S + s) * lf.V);
+          lf.weights.empty() ? nullptr : lf.weights[size_t(t) * lf.S + s].ptr<float>();
       double b = 0, a = 0, total = 0;
       for (size_t q = 0; q < weights.size(); ++q) {
         const float qx = x + offsets[q].x, qy = y + offsets[q].y;

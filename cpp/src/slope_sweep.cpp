@@ -39,7 +39,7 @@ constexpr double kMinVoteShare = 0.005;
 cv::Mat viewValues(const LightField& lf, int t, int s) {
   const cv::Mat values = lf.viewMat(t, s);
   if (lf.weights.empty()) return values;
-  const cv::Mat weights = lf.weights.rowRange((t * lf.S + s) * lf.V, (t * lf.S + s + 1) * lf.V);
+  const cv::Mat& weights = lf.weights[size_t(t) * lf.S + s];
   cv::Mat out(values.size(), CV_32F);
   const float floor = 0.5f * lf.maxWeight;
   for (int y = 0; y < lf.V; ++y)
@@ -155,7 +155,7 @@ void sweepSlope(const cv::Mat& reference, const std::vector<Compared>& views, do
 // Whether view (t, s) is mostly valid: its mean weight (alpha) at least half the largest.
 bool usable(const LightField& lf, int t, int s) {
   if (lf.weights.empty()) return true;
-  const cv::Mat weights = lf.weights.rowRange((t * lf.S + s) * lf.V, (t * lf.S + s + 1) * lf.V);
+  const cv::Mat& weights = lf.weights[size_t(t) * lf.S + s];
   return cv::mean(weights)[0] >= 0.5 * lf.maxWeight;
 }
 

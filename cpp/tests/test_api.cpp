@@ -211,6 +211,30 @@ TEST(Detection, OpaqueAlphaChannelChangesNothing) {
   EXPECT_TRUE(sameKeypoints(withAlpha, grey));
 }
 
+// A sub-array of a larger 4-D Mat is read where it is (views with continuous rows, as
+// when only views are cropped) or converted view by view (rows cropped too, or 8-bit):
+// either way the same keypoints as its continuous copy.
+TEST(Detection, SubArrayOfALargerLightFieldIsTheSameAsItsCopy) {
+  const cv::Mat lf = blobScene();  // 5 x 5 x 64 x 64
+  const int sizes[4] = {7, 6, 70, 64}, wider[4] = {7, 6, 70, 75};
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create();
+  for (const int* outer : {sizes, wider})
+    for (int depth : {CV_32F, CV_8U}) {
+      cv::Mat big(4, outer, depth, cv::Scalar(0)), scene;
+      lf.convertTo(scene, depth, depth == CV_8U ? 255.0 : 1.0);
+      const cv::Range inside[4] = {cv::Range(1, 6), cv::Range(0, 5), cv::Range(3, 67),
+                                   cv::Range(outer[3] - 64, outer[3])};
+      cv::Mat sub = big(inside);
+      scene.copyTo(sub);
+      ASSERT_FALSE(sub.isContinuous());
+      std::vector<cv::KeyPoint> fromSub, fromCopy;
+      d->detect(sub, fromSub);
+      d->detect(sub.clone(), fromCopy);
+      EXPECT_FALSE(fromCopy.empty());
+      EXPECT_TRUE(sameKeypoints(fromSub, fromCopy)) << "U = " << outer[3] << ", depth " << depth;
+    }
+}
+
 // --- FileStorage --------------------------------------------------------------------------
 
 TEST(Persistence, FileStorageRoundTripKeepsEveryParameter) {

@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -23,15 +24,17 @@ LightField zeroLightField(int T, int S, int V, int U) {
   lf.S = S;
   lf.V = V;
   lf.U = U;
-  lf.views = cv::Mat::zeros(T * S * V, U, CV_32F);
+  lf.allocate(false);
+  for (cv::Mat& view : lf.views) view.setTo(0);
   return lf;
 }
 
-float& sample(cv::Mat& views, const LightField& lf, int t, int s, int v, int u) {
-  return views.at<float>((t * lf.S + s) * lf.V + v, u);
+float& sample(std::vector<cv::Mat>& views, const LightField& lf, int t, int s, int v, int u) {
+  return views[size_t(t) * lf.S + s].at<float>(v, u);
 }
-float sample(const cv::Mat& views, const LightField& lf, int t, int s, int v, int u) {
-  return views.at<float>((t * lf.S + s) * lf.V + v, u);
+float sample(const std::vector<cv::Mat>& views, const LightField& lf, int t, int s, int v,
+             int u) {
+  return views[size_t(t) * lf.S + s].at<float>(v, u);
 }
 
 // Random values k / 256, k in [0, 256): sums of a few hundred of them are exact in float,
@@ -39,8 +42,9 @@ float sample(const cv::Mat& views, const LightField& lf, int t, int s, int v, in
 LightField dyadicLightField(int T, int S, int V, int U, uint64 seed) {
   LightField lf = zeroLightField(T, S, V, U);
   cv::RNG rng(seed);
-  for (int row = 0; row < lf.views.rows; ++row)
-    for (int u = 0; u < U; ++u) lf.views.at<float>(row, u) = float(rng.uniform(0, 256)) / 256.f;
+  for (cv::Mat& view : lf.views)
+    for (int v = 0; v < V; ++v)
+      for (int u = 0; u < U; ++u) view.at<float>(v, u) = float(rng.uniform(0, 256)) / 256.f;
   return lf;
 }
 
@@ -172,7 +176,7 @@ TEST(FocalStack, FractionalShiftSplitsASampleByTheBilinearWeights) {
 TEST(FocalStack, ConstantLightFieldGivesTheSameConstantUpToTheBorders) {
   constexpr float kGrey = 0.6f;
   LightField lf = zeroLightField(4, 3, 12, 14);
-  lf.views.setTo(kGrey);
+  for (cv::Mat& view : lf.views) view.setTo(kGrey);
   const std::vector<double> slopes{-1.7, -0.35, 0.5, 1.25, 3.0};
   const std::vector<cv::Mat> slices = render(lf, slopes);
   for (size_t k = 0; k < slopes.size(); ++k) {
@@ -210,16 +214,19 @@ TEST(FocalStack, SliceIsTheSameWhateverSlopesItIsRenderedWith) {
 // premultiplied as convertLightField leaves them.
 LightField alphaLightField(int T, int S, int V, int U) {
   LightField lf = dyadicLightField(T, S, V, U, 3);
-  lf.weights.create(lf.views.size(), CV_32F);
   cv::RNG rng(9);
-  for (int row = 0; row < lf.views.rows; ++row)
-    for (int u = 0; u < U; ++u) {
-      const float a = rng.uniform(0.f, 1.f) < 0.25f ? 0.f : float(rng.uniform(1, 257)) / 256.f;
-      lf.weights.at<float>(row, u) = a;
-      lf.views.at<float>(row, u) *= a;
-    }
-  double maxWeight;
-  cv::minMaxLoc(lf.weights, nullptr, &maxWeight);
+  double maxWeight = 0;
+  for (cv::Mat& view : lf.views) {
+    cv::Mat weight(V, U, CV_32F);
+    for (int v = 0; v < V; ++v)
+      for (int u = 0; u < U; ++u) {
+        const float a = rng.uniform(0.f, 1.f) < 0.25f ? 0.f : float(rng.uniform(1, 257)) / 256.f;
+        weight.at<float>(v, u) = a;
+        view.at<float>(v, u) *= a;
+        maxWeight = std::max(maxWeight, double(a));
+      }
+    lf.weights.push_back(weight);
+  }
   lf.maxWeight = float(maxWeight);
   return lf;
 }

@@ -34,11 +34,11 @@ LightField stripes(int T, int S, const std::vector<double>& slopes, double sigma
   lf.T = T;
   lf.S = S;
   lf.V = lf.U = kSide;
-  lf.views.create(T * S * kSide, kSide, CV_32F);
+  lf.allocate(false);
   const cv::Mat scene = texture(kSide, sigma, 7);
   for (int t = 0; t < T; ++t)
     for (int s = 0; s < S; ++s) {
-      cv::Mat view = lf.views.rowRange((t * S + s) * kSide, (t * S + s + 1) * kSide);
+      cv::Mat& view = lf.views[size_t(t) * S + s];
       for (size_t i = 0; i < slopes.size(); ++i) {
         const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, slopes[i] * (s - S / 2), 0, 1,
                                slopes[i] * (t - T / 2));
@@ -81,18 +81,19 @@ TEST(SlopeSweep, WorksOnARowOrAColumnOfViews) {
 
 TEST(SlopeSweep, FlatNoisyOrFaintLightFieldsVoteForNothing) {
   LightField flat = stripes(5, 5, {0.0});
-  flat.views.setTo(0.5);
+  for (cv::Mat& view : flat.views) view.setTo(0.5);
   EXPECT_TRUE(sweepSlopes(flat, -8, 8, kMinResponse).empty());
   LightField noise = flat;
-  noise.views = flat.views.clone();
   cv::RNG rng(3);
-  cv::Mat n(noise.views.size(), CV_32F);
-  rng.fill(n, cv::RNG::NORMAL, 0.f, 0.01f);
-  noise.views += n;  // independent per view: consistent at no slope
+  for (cv::Mat& view : noise.views) {
+    cv::Mat n(view.size(), CV_32F);
+    rng.fill(n, cv::RNG::NORMAL, 0.f, 0.01f);
+    view = view + n;  // a new Mat (flat's views stay flat); independent per view
+  }
   EXPECT_TRUE(sweepSlopes(noise, -8, 8, kMinResponse).empty());
   // A texture too faint for LiFF's contrast threshold is not structure LiFF can use.
   LightField faint = stripes(5, 5, {1.0});
-  faint.views = 0.5 + 0.01 * (faint.views - 0.5);
+  for (cv::Mat& view : faint.views) view = 0.5 + 0.01 * (view - 0.5);
   EXPECT_TRUE(sweepSlopes(faint, -8, 8, kMinResponse).empty());
   EXPECT_TRUE(covered(sweepSlopes(faint, -8, 8, 0.f), 1.0));  // contrastThreshold 0: found
 }
@@ -109,12 +110,13 @@ TEST(SlopeSweep, OnlySweepsTheSlopesAsked) {
 
 TEST(SlopeSweep, IgnoresSamplesWhoseAlphaIsLow) {
   LightField lf = stripes(5, 5, {1.0});
-  lf.weights = cv::Mat(lf.views.size(), CV_32F, cv::Scalar(1));
   // The left half of every view invalid (weight 0, premultiplied value 0): still found
   // from the right half, and no NaN escapes into the result.
-  for (int v = 0; v < 25; ++v) {
-    lf.weights.rowRange(v * kSide, (v + 1) * kSide).colRange(0, kSide / 2).setTo(0);
-    lf.views.rowRange(v * kSide, (v + 1) * kSide).colRange(0, kSide / 2).setTo(0);
+  for (cv::Mat& view : lf.views) {
+    cv::Mat weight(view.size(), CV_32F, cv::Scalar(1));
+    weight.colRange(0, kSide / 2).setTo(0);
+    view.colRange(0, kSide / 2).setTo(0);
+    lf.weights.push_back(weight);
   }
   const SlopeIntervals found = sweepSlopes(lf, -8, 8, kMinResponse);
   EXPECT_TRUE(covered(found, 1.0));

@@ -9,7 +9,14 @@ kernel faults in and zeroes one by one. On an Illum-size light field (11 x 11 vi
 time, system time that a process keeping its freed memory does not spend
 (benchmarks/batch.py measures tasks; docs/BENCHMARKS.md, "Batches and Dask").
 Dask's nanny makes it worse: it starts workers with ``MALLOC_TRIM_THRESHOLD_=65536``,
-which also turns off glibc's adaptive mmap threshold.
+which also turns off glibc's adaptive mmap threshold. And a Dask task runs in a worker
+thread, whose allocations come from a thread arena: heaps of at most 64 MiB that glibc
+unmaps as soon as one is wholly free, whatever M_TRIM_THRESHOLD says, unless M_TOP_PAD
+asks it to keep that much (glibc's malloc/arena.c, heap_trim). With TOP_PAD_BYTES a
+task in a thread reuses the heaps of the one before it as the main thread does; and
+LiFF is told to allocate a converted light field view by view, not as one buffer,
+which in a thread arena is larger than a heap and mapped anew on every call
+(``setViewByViewAllocation`` in the core's light_field.hpp).
 
 So a task's process keeps freed memory for the next task, up to a bound: RETAIN_SHARE
 of the memory it may use (a Dask worker's limit, else the machine's) and at most
@@ -24,16 +31,24 @@ import ctypes
 import os
 from typing import Optional
 
+import numpy as np
+
 #: Allocations at least this large are mapped from the system and unmapped when freed
 #: (glibc's M_MMAP_THRESHOLD; 32 MiB is the largest value glibc accepts).
 MMAP_THRESHOLD_BYTES = 32 * 2**20
+#: Size and alignment of a thread arena's heaps (glibc's HEAP_MAX_SIZE on 64-bit systems).
+THREAD_HEAP_BYTES = 64 * 2**20
+#: Free memory an arena keeps (glibc's M_TOP_PAD): a whole thread heap, so that a heap
+#: that falls free is kept. It reserves address space; pages are faulted in when used,
+#: so free memory not yet used is not resident (:func:`free_heap_bytes`).
+TOP_PAD_BYTES = THREAD_HEAP_BYTES
 #: Freed memory a process keeps for its next task (glibc's M_TRIM_THRESHOLD): this share
 #: of the memory it may use...
 RETAIN_SHARE = 0.25
 #: ...and at most this much.
 RETAIN_MAX_BYTES = 2**30
 
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # <malloc.h>
+_M_TRIM_THRESHOLD, _M_TOP_PAD, _M_MMAP_THRESHOLD = -1, -2, -3  # <malloc.h>
 
 
 class _MallInfo2(ctypes.Structure):
@@ -73,17 +88,53 @@ def reuse_freed_memory(memory_bytes: Optional[int] = None) -> None:
     retain = int(min(RETAIN_MAX_BYTES, RETAIN_SHARE * memory_bytes))
     libc.mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)
     libc.mallopt(_M_TRIM_THRESHOLD, max(MMAP_THRESHOLD_BYTES, retain))
+    libc.mallopt(_M_TOP_PAD, TOP_PAD_BYTES)
+    from . import _core
+
+    _core._set_view_by_view_allocation(True)
+
+
+def _heap_resident_bytes(libc: ctypes.CDLL) -> Optional[int]:
+    """Resident bytes of the allocator's heaps: the main arena's (``[heap]`` in
+    /proc/self/maps) and the thread arenas' (anonymous read-write mappings that start at a
+    multiple of THREAD_HEAP_BYTES, where glibc maps them), page by page with mincore(2);
+    None without /proc. (/proc/self/smaps says the same but takes 5-10 times longer.)"""
+    try:
+        with open("/proc/self/maps") as maps:
+            lines = maps.read().splitlines()
+    except OSError:
+        return None
+    page = os.sysconf("SC_PAGE_SIZE")
+    libc.mincore.argtypes = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_void_p]
+    resident = 0
+    for line in lines:  # start-end perms offset dev inode [path]
+        fields = line.split()
+        path = fields[5] if len(fields) > 5 else ""
+        start, end = (int(address, 16) for address in fields[0].split("-"))
+        if not (path == "[heap]" or (fields[1] == "rw-p" and fields[4] == "0" and not path
+                                     and start % THREAD_HEAP_BYTES == 0)):
+            continue
+        pages = np.zeros((end - start + page - 1) // page, np.uint8)
+        if libc.mincore(start, end - start, pages.ctypes.data) == 0:
+            resident += int(np.count_nonzero(pages & 1)) * page
+    return resident
 
 
 def free_heap_bytes() -> int:
-    """Bytes of the allocator's free memory (glibc's mallinfo2 ``fordblks``): memory this
-    process holds that its next allocations reuse; 0 where that is unknown."""
+    """Bytes of the allocator's free memory that are resident (glibc's mallinfo2): memory
+    this process holds that its next allocations reuse; 0 where that is unknown. Free
+    memory whose pages were never used (TOP_PAD_BYTES reserves such) is not counted:
+    the resident heap less the memory in use, at most mallinfo2's ``fordblks``."""
     libc = _glibc()
     mallinfo2 = getattr(libc, "mallinfo2", None)
     if mallinfo2 is None:
         return 0
     mallinfo2.restype = _MallInfo2
-    return int(mallinfo2().fordblks)
+    info = mallinfo2()
+    resident = _heap_resident_bytes(libc)
+    if resident is None:
+        return int(info.fordblks)
+    return int(max(0, min(info.fordblks, resident - info.uordblks)))
 
 
 def held_bytes() -> int:

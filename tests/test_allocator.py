@@ -65,6 +65,36 @@ def test_a_second_detection_reuses_the_first_ones_memory(where):
     assert reuse["free"] > 8 * 2**20  # the freed buffers, kept
 
 
+RELEASE_SCRIPT = """
+import json, threading
+import numpy as np
+import liff
+from liff import _allocator
+_allocator.reuse_freed_memory(256 * 2**20)  # keeps at most a quarter: 64 MiB
+lf = np.random.default_rng(0).integers(0, 256, (9, 9, 400, 560), dtype=np.uint8)
+liff.setNumThreads(1)
+detector = liff.LiFF.create(firstSlope=-1, lastSlope=1, numSlopes=3)
+worker = threading.Thread(target=detector.detectAndCompute, args=(lf, None))
+worker.start()
+worker.join()
+before = _allocator.free_heap_bytes()
+_allocator.release_excess()
+print(json.dumps({"before": before, "after": _allocator.free_heap_bytes(),
+                  "retain": _allocator._RETAIN}))
+"""
+
+
+def test_free_memory_beyond_the_bound_is_released_after_a_task():
+    # A thread arena keeps every heap it made (TOP_PAD_BYTES); release_excess holds the
+    # process to its bound.
+    out = subprocess.run([sys.executable, "-c", RELEASE_SCRIPT], capture_output=True,
+                         text=True, check=True, timeout=120)
+    sizes = json.loads(out.stdout.strip().splitlines()[-1])
+    assert sizes["retain"] == 64 * 2**20
+    assert sizes["before"] > sizes["retain"]
+    assert sizes["after"] <= sizes["retain"]
+
+
 def test_free_memory_is_not_counted_as_held():
     psutil = pytest.importorskip("psutil")  # (comes with distributed)
     assert _allocator.free_heap_bytes() > 0

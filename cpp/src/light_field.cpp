@@ -132,6 +132,9 @@ LightField checkLightField(const cv::Mat& input) {
 
 namespace {
 std::atomic<bool> viewByView{false};  // setViewByViewAllocation
+// Bookkeeping of one allocation beyond its data (cv::Mat's reference count and
+// alignment, the C allocator's chunk header), at most.
+constexpr double kPerAllocationBytes = 128;
 }  // namespace
 
 bool setViewByViewAllocation(bool enabled) { return viewByView.exchange(enabled); }
@@ -147,11 +150,13 @@ void LightField::allocate(bool withWeights) {
     }
     return;
   }
-  // One buffer, views (then weights) one after another; each view's header shares it.
-  const cv::Mat buffer(int((withWeights ? 2 : 1) * count), V * U, CV_32F);
+  // One buffer of views one after another, each view's header sharing it, and one of
+  // weights (apart, so that dropping all-1 weights frees theirs).
+  const cv::Mat viewBuffer(int(count), V * U, CV_32F);
+  const cv::Mat weightBuffer = withWeights ? cv::Mat(int(count), V * U, CV_32F) : cv::Mat();
   for (size_t v = 0; v < count; ++v) {
-    views[v] = buffer.row(int(v)).reshape(1, V);
-    if (withWeights) weights[v] = buffer.row(int(count + v)).reshape(1, V);
+    views[v] = viewBuffer.row(int(v)).reshape(1, V);
+    if (withWeights) weights[v] = weightBuffer.row(int(v)).reshape(1, V);
   }
 }
 
@@ -178,9 +183,13 @@ bool usedAsIs(const cv::Mat& input) {
 }  // namespace
 
 double conversionBytes(const cv::Mat& input, const LightField& lf) {
-  if (usedAsIs(input)) return 0;
+  const int planes = input.channels() % 2 == 0 ? 2 : 1;  // values (and weights)
+  // A header per view (and weight map), and with view-by-view allocation the
+  // allocator's bookkeeping of each: what matters for many tiny views.
+  const double headers = double(lf.T) * lf.S * planes * (sizeof(cv::Mat) + kPerAllocationBytes);
+  if (usedAsIs(input)) return headers;
   const double samples = double(lf.T) * lf.S * lf.V * lf.U;
-  return samples * sizeof(float) * (input.channels() % 2 == 0 ? 2 : 1);
+  return headers + samples * sizeof(float) * planes;
 }
 
 void convertLightField(const cv::Mat& input, LightField& lf) {

@@ -50,8 +50,8 @@ LightField checkLightField(const cv::Mat& input);
 /// less work). Never modifies the input; a grey CV_32F input whose rows are
 /// continuous within each view is used without copying. Throws for NaN / infinite values or negative alpha.
 void convertLightField(const cv::Mat& input, LightField& lf);
-/// Bytes convertLightField will allocate for a checked input (0 when it can use the
-/// input's data as it is).
+/// Bytes convertLightField will allocate for a checked input (only the views' headers
+/// when it can use the input's data as it is).
 double conversionBytes(const cv::Mat& input, const LightField& lf);
 
 /// The light field with every view (and its weights) shrunk `factor` times by area

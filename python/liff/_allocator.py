@@ -20,8 +20,10 @@ which in a thread arena is larger than a heap and mapped anew on every call
 
 So a task's process keeps freed memory for the next task, up to a bound: RETAIN_SHARE
 of the memory it may use (a Dask worker's limit, else the machine's) and at most
-RETAIN_MAX_BYTES. Memory so kept is reused by the next task, not added to it, and
-:func:`held_bytes` leaves it out of what the process holds. Nothing happens where the
+RETAIN_MAX_BYTES. A thread arena with TOP_PAD_BYTES never gives a heap back, so after
+each task :func:`release_excess` returns all free memory when more than that is kept.
+Memory so kept is reused by the next task, not added to it, and :func:`held_bytes`
+leaves it out of what the process holds. Nothing happens where the
 C library is not glibc.
 """
 
@@ -69,6 +71,7 @@ def _glibc() -> Optional[ctypes.CDLL]:
 
 
 _SET = False
+_RETAIN: Optional[int] = None  # bytes of free memory kept, once reuse_freed_memory set it
 
 
 def reuse_freed_memory(memory_bytes: Optional[int] = None) -> None:
@@ -76,7 +79,7 @@ def reuse_freed_memory(memory_bytes: Optional[int] = None) -> None:
     module docstring): up to RETAIN_SHARE of ``memory_bytes`` (the memory the process
     may use; the machine's when None) and RETAIN_MAX_BYTES, never under
     MMAP_THRESHOLD_BYTES."""
-    global _SET
+    global _SET, _RETAIN
     if _SET:
         return
     _SET = True
@@ -85,13 +88,34 @@ def reuse_freed_memory(memory_bytes: Optional[int] = None) -> None:
         return
     if not memory_bytes:
         memory_bytes = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    retain = int(min(RETAIN_MAX_BYTES, RETAIN_SHARE * memory_bytes))
+    _RETAIN = max(MMAP_THRESHOLD_BYTES, int(min(RETAIN_MAX_BYTES, RETAIN_SHARE * memory_bytes)))
     libc.mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)
-    libc.mallopt(_M_TRIM_THRESHOLD, max(MMAP_THRESHOLD_BYTES, retain))
+    libc.mallopt(_M_TRIM_THRESHOLD, _RETAIN)
     libc.mallopt(_M_TOP_PAD, TOP_PAD_BYTES)
     from . import _core
 
     _core._set_view_by_view_allocation(True)
+
+
+def release_excess() -> None:
+    """After a task: when the process keeps more free memory than :func:`reuse_freed_memory`
+    allows (its thread arenas give none back), returns all of it to the system (glibc's
+    malloc_trim); the next task faults its pages in again."""
+    libc = _glibc()
+    if _RETAIN is None or libc is None or not hasattr(libc, "malloc_trim"):
+        return
+    if free_heap_bytes() > _RETAIN:
+        libc.malloc_trim(ctypes.c_size_t(0))
+
+
+def _is_thread_heap(start: int, end: int) -> bool:
+    """Whether the read-write mapping [start, end) is a glibc thread arena's heap: it
+    starts at a multiple of THREAD_HEAP_BYTES with glibc's heap_info {arena, previous
+    heap, size, mprotect_size} (malloc/arena.c), sizes within a heap's."""
+    if start % THREAD_HEAP_BYTES or end - start > 2 * THREAD_HEAP_BYTES:
+        return False
+    arena, _, size, mprotect_size = (ctypes.c_size_t * 4).from_address(start)
+    return arena != 0 and 0 < size <= mprotect_size <= THREAD_HEAP_BYTES
 
 
 def _heap_resident_bytes(libc: ctypes.CDLL) -> Optional[int]:
@@ -112,7 +136,7 @@ def _heap_resident_bytes(libc: ctypes.CDLL) -> Optional[int]:
         path = fields[5] if len(fields) > 5 else ""
         start, end = (int(address, 16) for address in fields[0].split("-"))
         if not (path == "[heap]" or (fields[1] == "rw-p" and fields[4] == "0" and not path
-                                     and start % THREAD_HEAP_BYTES == 0)):
+                                     and _is_thread_heap(start, end))):
             continue
         pages = np.zeros((end - start + page - 1) // page, np.uint8)
         if libc.mincore(start, end - start, pages.ctypes.data) == 0:
@@ -134,7 +158,7 @@ def free_heap_bytes() -> int:
     resident = _heap_resident_bytes(libc)
     if resident is None:
         return int(info.fordblks)
-    return int(max(0, min(info.fordblks, resident - info.uordblks)))
+    return int(max(0, min(info.fordblks, min(resident, info.arena) - info.uordblks)))
 
 
 def held_bytes() -> int:

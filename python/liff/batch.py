@@ -113,14 +113,18 @@ def _worker_resources():
     """On a Dask worker, LiFF's threads and memory limit from the worker's for the
     duration of a task (then restored: an in-process worker shares them with its
     client); yields the worker's address, or '' elsewhere, where only the process's
-    allocator is set to keep freed memory (:mod:`liff._allocator`), as on a worker."""
+    allocator is set to keep freed memory (:mod:`liff._allocator`), as on a worker;
+    memory kept beyond its bound is released after the task."""
     try:
         from distributed import get_worker
 
         worker = get_worker()
     except (ImportError, ValueError):  # not on a Dask worker
         _allocator.reuse_freed_memory()
-        yield ""
+        try:
+            yield ""
+        finally:
+            _allocator.release_excess()
         return
     from . import getNumThreads, setNumThreads
     from .cli import common
@@ -138,6 +142,7 @@ def _worker_resources():
     finally:
         setNumThreads(threads)
         common.memory_limit_mb = memory
+        _allocator.release_excess()
 
 
 def connect(client) -> "distributed.Client":

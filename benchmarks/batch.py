@@ -8,7 +8,7 @@ write the .npz (liff.batch.run_task, what `liff detect` runs). In every round, t
 same tasks run on: one local worker with one LiFF thread; one with both cores; two
 local worker processes of one thread each (`liff detect --workers 2`); and a Dask
 LocalCluster of two one-thread worker processes (`--scheduler`), with Dask's defaults
-and with its workers started with MALLOC_ARENA_MAX=1. Each cluster is started before its run
+and with its workers' statistical profiler off. Each cluster is started before its run
 and closed after (outside the timings), so that no idle Dask process shares the
 machine with the other set-ups. The load of this shared machine drifts, so rounds
 interleave the set-ups and the figures are medians over rounds; the load average
@@ -182,12 +182,13 @@ def timed_run(name: str, tasks: list, client) -> tuple:
 
 SETUPS = ("local, 1 worker x 1 thread", "local, 1 worker x 2 threads",
           "local, 2 workers x 1 thread", "dask, 2 workers x 1 thread",
-          "dask, 2 workers x 1 thread, MALLOC_ARENA_MAX=1")
-#: Dask configuration of each Dask set-up's cluster: Dask's defaults, and workers started
-#: with MALLOC_ARENA_MAX=1 (a Dask task runs in a thread, whose own glibc arena returns
-#: freed memory that the process's main arena keeps: liff._allocator).
+          "dask, 2 workers x 1 thread, profiler off")
+#: Dask configuration of each Dask set-up's cluster: Dask's defaults, and workers whose
+#: statistical profiler is off (it samples the task's thread from the worker's event
+#: loop every 10 ms; docs/BATCH.md). (Workers started with MALLOC_ARENA_MAX=1, a set-up
+#: of earlier runs, measured no better once liff._allocator kept a thread's memory.)
 DASK_CONFIG = {SETUPS[3]: {},
-               SETUPS[4]: {"distributed.nanny.pre-spawn-environ.MALLOC_ARENA_MAX": 1}}
+               SETUPS[4]: {"distributed.worker.profile.enabled": False}}
 
 
 WORKERS = {SETUPS[0]: 1, SETUPS[1]: 1, SETUPS[2]: 2, SETUPS[3]: 2, SETUPS[4]: 2}

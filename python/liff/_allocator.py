@@ -108,13 +108,21 @@ def release_excess() -> None:
         libc.malloc_trim(ctypes.c_size_t(0))
 
 
-def _is_thread_heap(start: int, end: int) -> bool:
+def _is_thread_heap(memory: int, start: int, end: int) -> bool:
     """Whether the read-write mapping [start, end) is a glibc thread arena's heap: it
     starts at a multiple of THREAD_HEAP_BYTES with glibc's heap_info {arena, previous
-    heap, size, mprotect_size} (malloc/arena.c), sizes within a heap's."""
+    heap, size, mprotect_size} (malloc/arena.c), sizes within a heap's. Read through
+    /proc/self/mem (file descriptor ``memory``), not at the address: another thread may
+    unmap the region meanwhile, which is then an error here, not a crash."""
     if start % THREAD_HEAP_BYTES or end - start > 2 * THREAD_HEAP_BYTES:
         return False
-    arena, _, size, mprotect_size = (ctypes.c_size_t * 4).from_address(start)
+    try:
+        header = os.pread(memory, 4 * ctypes.sizeof(ctypes.c_size_t), start)
+    except OSError:
+        return False
+    if len(header) < 4 * ctypes.sizeof(ctypes.c_size_t):
+        return False
+    arena, _, size, mprotect_size = (ctypes.c_size_t * 4).from_buffer_copy(header)
     return arena != 0 and 0 < size <= mprotect_size <= THREAD_HEAP_BYTES
 
 
@@ -128,19 +136,27 @@ def _heap_resident_bytes(libc: ctypes.CDLL) -> Optional[int]:
             lines = maps.read().splitlines()
     except OSError:
         return None
+    try:
+        memory = os.open("/proc/self/mem", os.O_RDONLY)
+    except OSError:
+        memory = -1  # then no mapping counts as a thread heap
     page = os.sysconf("SC_PAGE_SIZE")
     libc.mincore.argtypes = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_void_p]
     resident = 0
-    for line in lines:  # start-end perms offset dev inode [path]
-        fields = line.split()
-        path = fields[5] if len(fields) > 5 else ""
-        start, end = (int(address, 16) for address in fields[0].split("-"))
-        if not (path == "[heap]" or (fields[1] == "rw-p" and fields[4] == "0" and not path
-                                     and _is_thread_heap(start, end))):
-            continue
-        pages = np.zeros((end - start + page - 1) // page, np.uint8)
-        if libc.mincore(start, end - start, pages.ctypes.data) == 0:
-            resident += int(np.count_nonzero(pages & 1)) * page
+    try:
+        for line in lines:  # start-end perms offset dev inode [path]
+            fields = line.split()
+            path = fields[5] if len(fields) > 5 else ""
+            start, end = (int(address, 16) for address in fields[0].split("-"))
+            if not (path == "[heap]" or (fields[1] == "rw-p" and fields[4] == "0" and not path
+                                         and memory >= 0 and _is_thread_heap(memory, start, end))):
+                continue
+            pages = np.zeros((end - start + page - 1) // page, np.uint8)
+            if libc.mincore(start, end - start, pages.ctypes.data) == 0:
+                resident += int(np.count_nonzero(pages & 1)) * page
+    finally:
+        if memory >= 0:
+            os.close(memory)
     return resident
 
 

@@ -84,7 +84,7 @@ def test_a_task_takes_its_workers_threads_and_memory(tmp_path, monkeypatch):
     large = write_light_fields(tmp_path, 1, (3, 3, 512, 512), "large")  # needs about 150 MB
     held = _allocator.held_bytes()  # as the task counts it: free heap memory is reused
     limit = int((held + 60 * 2**20) / batch.MEMORY_SHARE)  # about 60 MB for each task
-    threads, memory = liff.getNumThreads(), liff.cli.common.memory_limit_mb
+    threads, budget = liff.getNumThreads(), liff.cli.common.memory_budget_bytes
     # The worker shares this test process, already near the limit: Dask must not pause it.
     no_pausing = {f"distributed.worker.memory.{k}": False for k in ("target", "spill", "pause",
                                                                      "terminate")}
@@ -97,15 +97,20 @@ def test_a_task_takes_its_workers_threads_and_memory(tmp_path, monkeypatch):
             seen = []
 
             def spy(*task):  # what a task sees (the worker is in this process)
-                seen.append((liff.getNumThreads(), liff.cli.common.memory_limit_mb))
+                before = liff.cli.common.make_detector({}).getMemoryLimitMB()
+                light_field = np.ones((3, 3, 512, 512, 3), np.float32)  # 28 MiB read
+                after = liff.cli.common.make_detector({}).getMemoryLimitMB()
+                seen.append((liff.getNumThreads(), before, after, light_field.size))
                 return liff.cli.detect.Detected(0, (0.0, 0.0))
 
             monkeypatch.setattr(liff.cli.detect, "detect_one", spy)
             client.submit(batch.run_task, batch.Task(*small * 2, None, {}, False, {}),
                           pure=False).result()
-            assert seen[0][0] == 3 and 1 <= seen[0][1] <= 60  # threads; MB left of the limit
+            threads_seen, before, after, _ = seen[0]
+            assert threads_seen == 3 and 1 <= before <= 60  # threads; MB left of the limit
+            assert before - after >= 20  # the input read counts against the task's memory
     finally:
-        assert (liff.getNumThreads(), liff.cli.common.memory_limit_mb) == (threads, memory)
+        assert (liff.getNumThreads(), liff.cli.common.memory_budget_bytes) == (threads, budget)
     assert [o.status for o in outcomes] == ["done", "failed"]
     assert outcomes[1].error.startswith("MemoryError") and "MB" in outcomes[1].error
 
@@ -124,6 +129,22 @@ def test_inputs_from_folders_globs_and_a_list(tmp_path, capsys):
     assert "skipped 4 input(s)" in capsys.readouterr().out
     assert main(["detect", str(tmp_path / "nothing*.npy"), "--out", str(out)]) == 1
     assert "no file matches the pattern" in capsys.readouterr().err
+
+
+def test_a_folder_input_finds_light_fields_in_its_sub_folders(tmp_path):
+    """A dataset folder of scene folders of .npy files: each file is a light field, a
+    sub-folder of views is one, an empty folder or a link back up adds nothing."""
+    from liff.cli.common import expand_inputs
+
+    top = write_light_fields(tmp_path / "data", 1, prefix="top")
+    nested = write_light_fields(tmp_path / "data" / "scene_a", 2, prefix="a")
+    deeper = write_light_fields(tmp_path / "data" / "scene_b" / "day1", 1, prefix="b")
+    views = tmp_path / "data" / "scene_c"
+    liff.io.write_views(views, np.zeros((2, 2, 16, 16), np.uint8))
+    (tmp_path / "data" / "empty").mkdir()
+    os.symlink(tmp_path / "data", tmp_path / "data" / "scene_b" / "up")
+    found = expand_inputs([str(tmp_path / "data")], {})
+    assert found == nested + deeper + [str(views)] + top
 
 
 def test_batch_detect_takes_one_path_and_refuses_bad_arguments_up_front(tmp_path):
@@ -149,6 +170,64 @@ def test_an_unreachable_scheduler_is_a_clear_error_within_seconds(tmp_path, caps
     err = capsys.readouterr().err
     assert f"cannot reach a Dask scheduler at tcp://127.0.0.1:{port}" in err and "Traceback" not in err
     assert not any(n.endswith(".npz") for n in os.listdir(tmp_path / "out")) if (tmp_path / "out").exists() else True
+
+
+@pytest.mark.parametrize("server", ["silent", "http"])
+def test_a_server_that_is_not_a_dask_scheduler_is_a_clear_error_within_seconds(tmp_path, server):
+    """A port that accepts TCP but never speaks Dask (a dashboard, a stuck service), or
+    answers HTTP 400: refused within the timeout, not a hang or an exabyte allocation."""
+    import threading
+
+    paths = write_light_fields(tmp_path / "in", 1)
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen()
+    accepted = []
+
+    def serve():
+        while True:
+            try:
+                connection, _ = listener.accept()
+            except OSError:  # closed: the test is over
+                return
+            accepted.append(connection)
+            if server == "http":
+                connection.recv(100)
+                connection.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n")
+
+    threading.Thread(target=serve, daemon=True).start()
+    address = f"tcp://127.0.0.1:{listener.getsockname()[1]}"
+    start = time.perf_counter()
+    try:  # (in a process of its own, so that a hang fails the test instead of holding it)
+        run = subprocess.run([sys.executable, "-m", "liff", "detect", *paths, "--out",
+                              str(tmp_path / "out"), "--scheduler", address],
+                             capture_output=True, text=True, timeout=batch.CONNECT_TIMEOUT + 30)
+    finally:
+        listener.close()
+        for connection in accepted:
+            connection.close()
+    assert run.returncode == 1
+    assert time.perf_counter() - start < batch.CONNECT_TIMEOUT + 10  # (with Python's start)
+    assert address in run.stderr and "Dask scheduler" in run.stderr
+    assert "Traceback" not in run.stderr
+    assert accepted  # it was reached: the error is about what answered
+
+
+def test_a_scheduler_without_workers_says_so_and_waits_for_them(tmp_path):
+    paths = write_light_fields(tmp_path / "in", 2)
+    notices = []
+    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as local, \
+            distributed.Client(local) as client:
+        def notice(text):  # a worker joins once told
+            notices.append(text)
+            local.scale(1)
+
+        tasks = [batch.Task(p, str(tmp_path / f"{i}.npz"), None, {}, False, {})
+                 for i, p in enumerate(paths)]
+        outcomes = batch.run(tasks, client, notice=notice)
+    assert len(notices) == 1 and "no Dask worker has joined" in notices[0]
+    assert "dask worker" in notices[0]
+    assert [o.status for o in outcomes] == ["done", "done"]
 
 
 def _free_port():

@@ -63,7 +63,8 @@ def test_detect_batch_skips_existing_and_reports_bad_files(disk_npz, tmp_path, c
     args = ["detect", disk_npz, str(bad), "--out", str(out)]
     assert main(args) == 1  # one file failed
     captured = capsys.readouterr()
-    assert str(bad) in captured.err
+    assert captured.err.count(str(bad)) == 1  # named once, as other liff errors are
+    assert f"liff detect: {bad}" in captured.err and "ValueError" not in captured.err
     assert os.path.exists(out / "disks.npz") and not os.path.exists(out / "bad.npz")
     mtime = os.path.getmtime(out / "disks.npz")
     assert main(["detect", disk_npz, "--out", str(out)]) == 0

@@ -109,6 +109,35 @@ def test_an_output_made_with_other_settings_is_redone_and_said(disks, tmp_path, 
         assert len(load_features(out).keypoints) == expected < 20  # ties with the 10th kept
 
 
+@pytest.mark.parametrize("kind", ["file", "folder of views"])
+def test_an_input_replaced_by_an_older_file_is_redone(tmp_path, capsys, kind):
+    """cp -p, rsync -a and mv keep the replacement's older time: the output records the
+    input's size and time and compares them for equality, not for 'newer'."""
+    def write(seed):
+        lf = liff.synthetic.textured_layers((3, 3, 48, 48), seed=seed).light_field
+        lf = np.clip(lf * 255, 0, 255).astype(np.uint8)
+        if kind == "file":
+            path = tmp_path / "lf.npy"
+            np.save(path, lf)
+        else:
+            path = tmp_path / "lf"
+            liff.io.write_views(path, lf)
+        return path
+
+    path, out = write(0), tmp_path / "f.npz"
+    assert _detect(path, out) == 0
+    first = load_features(out)
+    assert _detect(path, out) == 0 and "skipped 1 input(s)" in capsys.readouterr().out
+    write(1)  # a different light field, then its time set back as cp -p would
+    older = os.path.getmtime(out) - 3600
+    for changed in ([path] if kind == "file" else list(path.iterdir())):
+        os.utime(changed, (older, older))
+    assert _detect(path, out) == 0
+    assert "the input changed after the output was made" in capsys.readouterr().out
+    assert not np.array_equal(load_features(out).descriptors, first.descriptors)
+    assert _detect(path, out) == 0 and "skipped 1 input(s)" in capsys.readouterr().out
+
+
 def test_an_input_changed_or_another_version_is_redone(disks, tmp_path, capsys):
     out = tmp_path / "f.npz"
     assert _detect(disks, out) == 0

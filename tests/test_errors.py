@@ -34,7 +34,6 @@ BAD_LIGHT_FIELDS = {
     "complex": (np.zeros((3, 3, 32, 32), complex), "dtype"),
     "object": (np.array([[None, None], [None, None]]), "dtype"),
     "string": ("not a light field", "dtype"),
-    "None": (None, "dtype"),
     "empty T": (np.zeros((0, 3, 32, 32)), "empty"),
     "empty S": (np.zeros((3, 0, 32, 32)), "empty"),
     "empty V": (np.zeros((3, 3, 0, 32)), "empty"),
@@ -47,7 +46,7 @@ BAD_LIGHT_FIELDS = {
     "Inf": (with_value(np.inf), "infinite"),
     "-Inf 2-D": (with_value(-np.inf, np.float32, (32, 32)), "infinite"),
     "NaN colour": (with_value(np.nan, shape=(3, 3, 32, 32, 3)), "NaN"),
-    "overflows float32": (with_value(1e300), "infinite"),
+    "overflows float32": (with_value(1e300), "beyond float.s range"),
 }
 
 
@@ -61,6 +60,17 @@ def test_bad_light_field(lf, word, call):
         else:
             getattr(d, call)(lf)
     assert "expected" in str(info.value)
+
+
+@pytest.mark.parametrize("call", ["detect", "detectAndCompute", "compute"])
+def test_a_light_field_of_none_is_a_type_error(call):
+    """What a failed cv2.imread returns: a TypeError (README: wrong types), saying so."""
+    d = liff.LiFF.create()
+    with pytest.raises(TypeError, match="light field is None; expected"):
+        if call == "compute":
+            d.compute(None, [cv2.KeyPoint(10, 10, 3, 0, 0, 0, 0)])
+        else:
+            getattr(d, call)(None, None)
 
 
 BAD_MASKS = {

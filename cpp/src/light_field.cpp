@@ -230,8 +230,12 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
   if (depth == CV_32F || depth == CV_64F) {
     // For 64F input a finite value can still overflow float; check the converted
     // data, view by view in parallel, and report the first bad sample.
-    checkFinite(lf.views, lf, "value");
-    if (hasAlpha) checkFinite(lf.weights, lf, "alpha (weight)");
+    const bool f64 = depth == CV_64F;
+    checkFinite(lf.views, lf, f64 ? "value (or one beyond float's range, 3.4e38, which LiFF "
+                                    "computes in)" : "value");
+    if (hasAlpha)
+      checkFinite(lf.weights, lf, f64 ? "alpha (weight) (or one beyond float's range, 3.4e38)"
+                                      : "alpha (weight)");
   }
   if (hasAlpha) {
     double minWeight = std::numeric_limits<double>::infinity(), maxWeight = -minWeight;

@@ -55,7 +55,11 @@ def _parameters_docstring() -> str:
 
 
 def _as_light_field(lf) -> np.ndarray:
-    """C-contiguous, native-byte-order view (or copy) of ``lf``; never modifies it."""
+    """C-contiguous, native-byte-order view (or copy) of ``lf``; never modifies it.
+    TypeError for None (what a failed read such as cv2.imread returns)."""
+    if lf is None:
+        raise TypeError("light field is None; expected an array (T, S, V, U[, C]) or one "
+                        "view (V, U[, C]) (did a read fail? cv2.imread returns None)")
     if not isinstance(lf, np.ndarray):
         if hasattr(lf, "get") and callable(lf.get):  # cv2.UMat
             lf = lf.get()

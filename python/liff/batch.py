@@ -14,8 +14,9 @@ with Dask's own ``dask scheduler`` and ``dask worker ADDRESS``). What survives w
 
 On a worker a task takes the worker's resources: LiFF runs one light field at a time
 per worker process with the worker's thread count (``liff.setNumThreads``) and a memory
-limit from the worker's (``setMemoryLimitMB``), so a light field too large for the
-worker is refused (``MemoryError`` in its outcome) or processed in less memory, rather
+limit (``setMemoryLimitMB``): MEMORY_SHARE of the worker's, less what the process holds
+once the light field is read (its input array included), so a light field too large for
+the worker is refused (``MemoryError`` in its outcome) or processed in less memory, rather
 than the worker being killed for exceeding its memory. The process keeps memory freed
 by one task for the next (:mod:`liff._allocator`).
 """
@@ -26,6 +27,7 @@ import csv
 import os
 import threading
 import time
+import warnings
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields
 from typing import TYPE_CHECKING, List, NamedTuple, Optional, Sequence
@@ -101,11 +103,24 @@ def run_task(task: Task) -> Outcome:
                               result.slopes_from, notes="\n".join(result.notes))
         except Exception as error:  # reported in the manifest, as every failure of a task
             outcome = Outcome(task.source, task.output, "failed",
-                              error=f"{type(error).__name__}: {error}")
+                              error=f"{type(error).__name__}: {error}{_memory_hint(error)}")
         outcome.seconds = round(time.perf_counter() - start, 3)
         outcome.cpu_seconds = round(time.process_time() - cpu, 3)
         outcome.worker = worker
     return outcome
+
+
+def _memory_hint(error: Exception) -> str:
+    """For a MemoryError on a Dask worker: where the limit came from (not only
+    setMemoryLimitMB, which the user does not call here)."""
+    from .cli import common
+
+    if not isinstance(error, MemoryError) or common.memory_budget_bytes is None:
+        return ""
+    return (f" (on this Dask worker: {MEMORY_SHARE:.0%} of its memory limit, "
+            f"{common.memory_budget_bytes / MEMORY_SHARE / 1e6:.0f} MB, less what the worker "
+            "process holds with the light field read; or give workers more memory: dask worker "
+            "--memory-limit)")
 
 
 @contextmanager
@@ -129,19 +144,18 @@ def _worker_resources():
     from . import getNumThreads, setNumThreads
     from .cli import common
 
-    threads, memory = getNumThreads(), common.memory_limit_mb
+    threads, budget = getNumThreads(), common.memory_budget_bytes
     setNumThreads(worker.state.nthreads)
     limit = worker.memory_manager.memory_limit
     _allocator.reuse_freed_memory(limit)
     if limit:
-        # What the process holds beyond its allocator's free memory, which the task reuses.
-        held = _allocator.held_bytes()
-        common.memory_limit_mb = max(1, int((MEMORY_SHARE * limit - held) / 2**20))
+        # The detector's limit is what this leaves once the input is read (make_detector).
+        common.memory_budget_bytes = int(MEMORY_SHARE * limit)
     try:
         yield worker.address
     finally:
         setNumThreads(threads)
-        common.memory_limit_mb = memory
+        common.memory_budget_bytes = budget
         _allocator.release_excess()
 
 
@@ -162,22 +176,75 @@ def connect(client) -> "distributed.Client":
         raise ImportError("a Dask cluster needs dask and distributed: pip install 'liff[dask]'") from None
     if isinstance(client, distributed.Client):
         return client
+    expected = "expected the address of a running `dask scheduler`, e.g. tcp://10.0.0.5:8786"
+    if isinstance(client, (str, os.PathLike)):
+        _identify_scheduler(os.fspath(client), expected)
     try:
         return distributed.Client(client, timeout=CONNECT_TIMEOUT)
     except (OSError, TimeoutError) as error:
         raise ValueError(f"cannot reach a Dask scheduler at {client} within {CONNECT_TIMEOUT} s "
-                         f"({error}); expected the address of a running `dask scheduler`, "
-                         "e.g. tcp://10.0.0.5:8786") from None
+                         f"({error}); {expected}") from None
 
 
-def run(tasks: Sequence[Task], client, progress=None) -> List[Outcome]:
+def _identify_scheduler(address: str, expected: str) -> dict:
+    """The identity of the Dask scheduler at ``address`` (its "identity" message: type,
+    workers), asked within :data:`CONNECT_TIMEOUT` seconds in all; ValueError if nothing
+    answers or what answers is not a Dask scheduler. (``distributed.Client`` bounds only
+    the TCP connection: a server that accepts it and never speaks Dask's handshake, such
+    as a dashboard port, would hold it forever, and an HTTP reply read as a frame length
+    asks for exabytes.)"""
+    import asyncio
+    from concurrent.futures import ThreadPoolExecutor
+
+    from distributed.comm import connect as open_comm
+
+    async def identify():
+        comm = await open_comm(address, timeout=CONNECT_TIMEOUT)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    async def within_deadline():
+        return await asyncio.wait_for(identify(), CONNECT_TIMEOUT)
+
+    # In a thread of its own: the caller may be running an event loop (Jupyter).
+    with ThreadPoolExecutor(1) as thread:
+        try:
+            identity = thread.submit(asyncio.run, within_deadline()).result()
+        except (OSError, TimeoutError, asyncio.TimeoutError) as error:
+            raise ValueError(f"cannot reach a Dask scheduler at {address} within "
+                             f"{CONNECT_TIMEOUT} s ({str(error) or 'no answer in the time'}); "
+                             f"{expected}") from None
+        except Exception as error:  # e.g. MemoryError: an HTTP reply read as a frame length
+            raise ValueError(f"{address} answered, but not as a Dask scheduler ("
+                             f"{type(error).__name__} reading its reply); {expected}") from None
+    if not isinstance(identity, dict) or identity.get("type") != "Scheduler":
+        raise ValueError(f"{address} answered, but not as a Dask scheduler; {expected}")
+    return identity
+
+
+def run(tasks: Sequence[Task], client, progress=None, notice=None) -> List[Outcome]:
     """Runs every task on the Dask cluster of ``client`` (a ``distributed.Client`` or a
     scheduler's address) and returns their outcomes in task order.
 
-    ``progress``: a callable told each outcome as it arrives (e.g. a progress bar's)."""
+    ``progress``: a callable told each outcome as it arrives (e.g. a progress bar's).
+    ``notice``: a callable told a line of text when the scheduler has no worker yet (the
+    tasks wait for workers to join); by default a :class:`liff.LiffWarning`."""
     own = not _is_client(client)  # made here from an address: closed here
     client = connect(client)
     try:
+        if tasks and not client.nthreads():
+            text = (f"no Dask worker has joined the scheduler at {client.scheduler.address} "
+                    "yet; the tasks wait for one (start workers with `dask worker "
+                    f"{client.scheduler.address}`)")
+            if notice:
+                notice(text)
+            else:
+                from ._warnings import LiffWarning
+
+                warnings.warn(text, LiffWarning, stacklevel=2)
         return _gather(client, tasks, progress)
     finally:
         if own:

@@ -234,14 +234,22 @@ def slope_range(parameters: dict, metadata: dict) -> Tuple[dict, str]:
     return with_defaults(resolved), " + ".join(sorted(set(sources), key=order.index))
 
 
-#: setMemoryLimitMB of the detectors made here (0: LiFF's default, the memory available
-#: when a call starts); liff.batch sets it on a Dask worker from the worker's limit.
-memory_limit_mb = 0
+#: Bytes this process may hold while a detector made here runs, its input included
+#: (None: no bound; LiFF's default limit, the memory available when a call starts).
+#: liff.batch sets it on a Dask worker from the worker's memory limit.
+memory_budget_bytes: Optional[int] = None
 
 
 def make_detector(parameters: dict) -> LiFF:
+    """A detector with ``parameters``; under a :data:`memory_budget_bytes`, its memory
+    limit (setMemoryLimitMB) is what the budget leaves of what the process holds now,
+    so a light field read before the detector is made counts against the budget."""
     detector = LiFF.create(**parameters)
-    detector.setMemoryLimitMB(memory_limit_mb)
+    if memory_budget_bytes is not None:
+        from .. import _allocator
+
+        left = memory_budget_bytes - _allocator.held_bytes()
+        detector.setMemoryLimitMB(max(1, int(left / 2**20)))
     return detector
 
 
@@ -275,14 +283,28 @@ def is_light_field_folder(folder: str, options: dict) -> bool:
                    for e in entries)
 
 
-def _folder_entries(folder: str) -> List[str]:
-    """The light fields in a folder of light fields: sub-folders and the files liff.io
-    recognises (.npy, .npz, *.eslf.*), sorted; hidden files (partial outputs) skipped."""
+def _folder_entries(folder: str, options: dict, seen: Optional[set] = None) -> List[str]:
+    """The light fields in a folder of light fields, sorted: the files liff.io recognises
+    (.npy, .npz, .mat, .h5, *.eslf.*), sub-folders that are light fields (views; see
+    :func:`is_light_field_folder`), and the light fields in the other sub-folders, at
+    any depth; hidden files and folders (partial outputs) skipped."""
     from ..io import guess_format
 
+    seen = seen if seen is not None else set()
+    if os.path.realpath(folder) in seen:  # a link back up: a cycle
+        return []
+    seen.add(os.path.realpath(folder))
     names = sorted(n for n in os.listdir(folder) if not n.startswith("."))
-    paths = [os.path.join(folder, n) for n in names]
-    return [p for p in paths if os.path.isdir(p) or guess_format(p) is not None]
+    found: List[str] = []
+    for path in (os.path.join(folder, n) for n in names):
+        if not os.path.isdir(path):
+            if guess_format(path) is not None:
+                found.append(path)
+        elif is_light_field_folder(path, options):
+            found.append(path)
+        else:
+            found += _folder_entries(path, options, seen)
+    return found
 
 
 def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] = None) -> List[str]:
@@ -315,7 +337,7 @@ def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] 
                 raise ValueError(f"{path}: no file matches the pattern; expected light fields")
             found += matches
         elif os.path.isdir(path) and not is_light_field_folder(path, options):
-            entries = _folder_entries(path)
+            entries = _folder_entries(path, options)
             if not entries:
                 raise ValueError(f"{path}: no light field in the folder; expected view images "
                                  "(one light field) or light field files and folders")
@@ -360,12 +382,31 @@ def json_like(value):
 
 def modified_after(source: str, output: str) -> bool:
     """Whether the input ``source`` (a file, or a folder's files) changed after
-    ``output`` was written."""
+    ``output`` was written (for feature files that predate :func:`input_identity`)."""
     made = os.path.getmtime(output)
     if os.path.isdir(source):
         with os.scandir(source) as entries:
             return any(e.stat().st_mtime > made for e in entries)
     return os.path.exists(source) and os.path.getmtime(source) > made
+
+
+def input_identity(source: str) -> Optional[str]:
+    """The input's size and modification time (ns): of the file, or of every file in the
+    folder, with their names (a digest). An output records it, and a re-run redoes the
+    output when it differs either way: a replaced input with an older time (``cp -p``,
+    ``rsync -a``, ``mv``) is caught, as a newer one is. None if ``source`` is missing."""
+    import hashlib
+
+    try:
+        if not os.path.isdir(source):
+            stat = os.stat(source)
+            return f"{stat.st_size}:{stat.st_mtime_ns}"
+        with os.scandir(source) as entries:
+            listing = sorted((e.name, e.stat().st_size, e.stat().st_mtime_ns)
+                             for e in entries if e.is_file())
+    except OSError:
+        return None
+    return "folder:" + hashlib.sha256(repr(listing).encode()).hexdigest()[:32]
 
 
 def check_output_folder(given: Optional[str], suffix: str, inputs: int, option: str) -> None:

@@ -97,6 +97,7 @@ class Detected(NamedTuple):
 def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
                parameters: dict, mask_spec: Optional[str] = None) -> Detected:
     """Reads, detects and writes one light field; returns what it found."""
+    identity = common.input_identity(path)  # before reading: a change meanwhile is redone
     light_field, metadata = common.read_input(path, options, preprocess)
     resolved, slopes_from = common.slope_range(parameters, metadata)
     detector = common.make_detector(resolved)
@@ -108,7 +109,8 @@ def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
     searched, built = detector.getSearchedSlopes(), detector.getSlicesUsed()
     slope_range = (searched[0], searched[-1]) if searched else (float("nan"), float("nan"))
     meta = dict(settings(path, options, preprocess, parameters, mask_spec),
-                shape=list(light_field.shape), slopes_searched=searched, slopes_from=slopes_from,
+                input_identity=identity, shape=list(light_field.shape),
+                slopes_searched=searched, slopes_from=slopes_from,
                 plot=os.path.abspath(plot) if plot else None)
     view = centre_view(light_field)
     with atomic_output(out) as partial:
@@ -145,7 +147,11 @@ def changes(out: str, plot: Optional[str], wanted: dict) -> Optional[List[str]]:
     differ = [f"{key.replace('parameters.', '').replace('_', ' ')} {shown(old.get(key))} -> "
               f"{shown(value)}"
               for key, value in new.items() if key != "parameters" and old.get(key) != value]
-    if not differ and common.modified_after(wanted["source"], out):
+    if "input_identity" in made:  # size and time, compared for equality
+        changed = made["input_identity"] != common.input_identity(wanted["source"])
+    else:  # (a feature file made before liff recorded it)
+        changed = common.modified_after(wanted["source"], out)
+    if not differ and changed:
         differ = ["the input changed after the output was made"]
     if not differ and plot and not os.path.exists(plot):
         return []
@@ -214,22 +220,30 @@ def run_tasks(tasks: List[batch.Task], args: argparse.Namespace) -> List[batch.O
     processes, with a progress bar; failures are reported as they come."""
     def report(outcome: batch.Outcome) -> None:
         if outcome.error:
-            bar.write(f"liff detect: {outcome.input}: {common.name_flags(outcome.error)}",
-                      file=sys.stderr)
+            bar.write(failure_line(outcome), file=sys.stderr)
         bar.update()
 
     if args.scheduler:
         with common.progress(desc="liff detect", total=len(tasks)) as bar:
-            return batch.run(tasks, args.scheduler, progress=report)
+            return batch.run(tasks, args.scheduler, progress=report,
+                             notice=lambda text: bar.write(f"liff detect: {text}", file=sys.stderr))
     outcomes, _ = common.run_batch(batch.run_task, [(task,) for task in tasks], args.workers,
                                    "detect", label=lambda job: job[0].source)
     outcomes = [o or batch.Outcome(t.source, t.output, "failed", error="reported above")
                 for t, o in zip(tasks, outcomes)]
     for outcome in outcomes:
         if outcome.error and outcome.error != "reported above":
-            error = outcome.error.removeprefix("ValueError: ")  # (the manifest keeps the type)
-            print(f"liff detect: {outcome.input}: {common.name_flags(error)}", file=sys.stderr)
+            print(failure_line(outcome), file=sys.stderr)
     return outcomes
+
+
+def failure_line(outcome: batch.Outcome) -> str:
+    """``liff detect: <input>: <error>`` for a failed task, as other liff errors read:
+    without the type of a ValueError (the manifest keeps it) and with the input named
+    once (readers' messages already start with it)."""
+    error = common.name_flags(outcome.error.removeprefix("ValueError: "))
+    return "liff detect: " + (error if error.startswith(outcome.input) else
+                              f"{outcome.input}: {error}")
 
 
 def manifest_path(args: argparse.Namespace) -> Optional[str]:

@@ -7,8 +7,9 @@ Each light field (11x11 views of 376x541, uint8, as .npy) is one task: read, det
 write the .npz (liff.batch.run_task, what `liff detect` runs). In every round, the
 same tasks run on: one local worker with one LiFF thread; one with both cores; two
 local worker processes of one thread each (`liff detect --workers 2`); and a Dask
-LocalCluster of two one-thread worker processes (`--scheduler`), with Dask's defaults
-and with its workers' statistical profiler off. Each cluster is started before its run
+LocalCluster of two one-thread worker processes (`--scheduler`, Dask's defaults), as
+liff runs it (the workers' statistical profiler paused for the run) and with the
+profiler kept running (``worker_profiler=True``). Each cluster is started before its run
 and closed after (outside the timings), so that no idle Dask process shares the
 machine with the other set-ups. The load of this shared machine drifts, so rounds
 interleave the set-ups and the figures are medians over rounds; the load average
@@ -24,7 +25,11 @@ time a worker spent not running a task (scheduling, transfers, the tail of the r
 Dask's overhead per task is the wall-time difference to the local pool in the same
 round, times workers / tasks: all it costs, its processes' own work competing with the
 tasks included; printed beside it, the part between tasks (the gaps' difference) and
-the CPU time the task's process spent beyond the pool's (Dask's own threads).
+the CPU time the task's process spent beyond the pool's (Dask's own threads); and
+Dask's own CPU per task measured directly: the processor time of the worker
+processes' threads other than the task threads (/proc/self/task), and of this process
+(the client, and the LocalCluster's scheduler, which runs in it), which the load of a
+shared machine disturbs far less than wall times.
 """
 
 from __future__ import annotations
@@ -162,33 +167,59 @@ def tasks_into(paths: list, folder: str) -> list:
                        False, parameters) for p in paths]
 
 
+def dask_thread_cpu() -> float:
+    """CPU seconds so far of this process's threads other than its task threads (those
+    of Dask's executor): on a Dask worker, Dask's own work (the event loop in the main
+    thread: messages, heartbeats, the memory monitor, the profiler's sampling)."""
+    import threading
+
+    tick = os.sysconf("SC_CLK_TCK")
+    tasks = {t.native_id for t in threading.enumerate() if "Dask-Default-Threads" in t.name}
+    total = 0.0
+    for tid in os.listdir("/proc/self/task"):
+        if int(tid) in tasks:
+            continue
+        with open(f"/proc/self/task/{tid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()  # (after the thread's name)
+        total += (int(fields[11]) + int(fields[12])) / tick  # utime + stime
+    return total
+
+
 def timed_run(name: str, tasks: list, client) -> tuple:
-    """(wall seconds, task seconds, task CPU seconds) of one set-up over ``tasks``;
-    checks that every task succeeded."""
+    """(wall seconds, task seconds, task CPU seconds, Dask's own CPU seconds (in the
+    workers, and in this process: client and LocalCluster's scheduler) or zeros) of one
+    set-up over ``tasks``; checks that every task succeeded."""
     start = time.perf_counter()
+    dask_cpu = (0.0, 0.0)
     if name.startswith("dask"):
-        outcomes = batch.run(tasks, client)
+        before = client.run(dask_thread_cpu)  # (liff is imported by the first task, as locally)
+        start, here = time.perf_counter(), time.process_time()
+        outcomes = batch.run(tasks, client, worker_profiler=name == SETUPS[4])
+        wall, here = time.perf_counter() - start, time.process_time() - here
+        after = client.run(dask_thread_cpu)
+        dask_cpu = (sum(after[w] - before[w] for w in after), here)
     else:
         workers, threads = {"local, 1 worker x 1 thread": (1, 1), "local, 1 worker x 2 threads": (1, 2),
                             "local, 2 workers x 1 thread": (2, 1)}[name]
         liff.setNumThreads(threads)
         outcomes = common.run_batch(batch.run_task, [(t,) for t in tasks], workers, "bench", str)[0]
-    wall = time.perf_counter() - start
+        wall = time.perf_counter() - start
     failed = [o for o in outcomes if o is None or o.status != "done"]
     if failed:
         raise RuntimeError(f"{name}: {len(failed)} task(s) failed: {failed[:1]}")
-    return wall, sum(o.seconds for o in outcomes), sum(o.cpu_seconds for o in outcomes)
+    return wall, sum(o.seconds for o in outcomes), sum(o.cpu_seconds for o in outcomes), dask_cpu
 
 
 SETUPS = ("local, 1 worker x 1 thread", "local, 1 worker x 2 threads",
           "local, 2 workers x 1 thread", "dask, 2 workers x 1 thread",
-          "dask, 2 workers x 1 thread, profiler off")
-#: Dask configuration of each Dask set-up's cluster: Dask's defaults, and workers whose
-#: statistical profiler is off (it samples the task's thread from the worker's event
-#: loop every 10 ms; docs/BATCH.md). (Workers started with MALLOC_ARENA_MAX=1, a set-up
-#: of earlier runs, measured no better once liff._allocator kept a thread's memory.)
-DASK_CONFIG = {SETUPS[3]: {},
-               SETUPS[4]: {"distributed.worker.profile.enabled": False}}
+          "dask, 2 workers x 1 thread, profiler kept")
+#: Dask configuration of each Dask set-up's cluster: Dask's defaults in both; the second
+#: keeps the workers' statistical profiler running during the run, which liff pauses
+#: (it samples the task's thread from the worker's event loop every 10 ms; liff's
+#: _dask_workers). (Earlier runs' fifth set-ups: workers started with MALLOC_ARENA_MAX=1,
+#: no better once liff._allocator kept a thread's memory; the profiler turned off in the
+#: workers' configuration, as fast as pausing it.)
+DASK_CONFIG = {SETUPS[3]: {}, SETUPS[4]: {}}
 
 
 WORKERS = {SETUPS[0]: 1, SETUPS[1]: 1, SETUPS[2]: 2, SETUPS[3]: 2, SETUPS[4]: 2}
@@ -196,7 +227,7 @@ WORKERS = {SETUPS[0]: 1, SETUPS[1]: 1, SETUPS[2]: 2, SETUPS[3]: 2, SETUPS[4]: 2}
 
 def report(runs: dict, count: int, liff_1: float, liff_2: float, startup: float) -> None:
     """Prints the table and the targets from ``runs``: set-up -> list of (wall, task
-    seconds, task CPU seconds, load average), one per round."""
+    seconds, task CPU seconds, Dask's own CPU seconds, load average), one per round."""
     median = {name: statistics.median(r[0] for r in rows) for name, rows in runs.items()}
     gap = {name: statistics.median(r[0] * WORKERS[name] / count - r[1] / count for r in rows)
            for name, rows in runs.items()}
@@ -208,7 +239,7 @@ def report(runs: dict, count: int, liff_1: float, liff_2: float, startup: float)
           "| rounds (s, load average before) |")
     print("|---|---|---|---|---|---|---|")
     for name in SETUPS:
-        rounds = ", ".join(f"{r[0]:.1f} ({r[3]:.1f})" for r in runs[name])
+        rounds = ", ".join(f"{r[0]:.1f} ({r[4]:.1f})" for r in runs[name])
         print(f"| {name} | {median[name]:.1f} | {count / median[name]:.2f} | "
               f"{base / median[name]:.2f}x | {cpu[name]:.2f} | {gap[name]:.3f} | {rounds} |")
     pool = SETUPS[2]
@@ -234,8 +265,17 @@ def report(runs: dict, count: int, liff_1: float, liff_2: float, startup: float)
               f"{', '.join(f'{1000 * d:.0f}' for d in per_round)} ms); between tasks "
               f"{', '.join(f'{1000 * g:.0f}' for g in gaps)} ms; CPU in the task's process "
               f"beyond the pool's {', '.join(f'{1000 * c:.0f}' for c in cpus)} ms")
+        # Dask's own processor time in the workers (threads other than the task's),
+        # which the shared machine's load disturbs far less than wall times.
+        own = [d[3][0] / count for d in runs[dask]]
+        here = [d[3][1] / count for d in runs[dask]]
+        print(f"  Dask's own CPU per task: in the workers {1000 * statistics.median(own):.0f} ms "
+              f"= {100 * statistics.median(own) / liff_1:.1f}% of LiFF's own time (median; by "
+              f"round {', '.join(f'{1000 * o:.0f}' for o in own)} ms); in the scheduler and "
+              f"client (this process) {1000 * statistics.median(here):.0f} ms (by round "
+              f"{', '.join(f'{1000 * h:.0f}' for h in here)} ms)")
     print(f"LocalCluster start-up {startup:.1f} s (median; once per run, outside the timings)")
-    overhead = overheads[SETUPS[3]]  # Dask's defaults: `dask worker ADDRESS`
+    overhead = overheads[SETUPS[3]]  # `dask worker ADDRESS` as liff runs tasks on it
     per_light_field = cpu[pool]  # CPU seconds per light field, reading and writing included
     print(f"\nmeasured cost: {per_light_field:.2f} CPU seconds per light field (read, detect, "
           f"write; one thread); the paper's {PAPER_LIGHT_FIELDS} light fields, "

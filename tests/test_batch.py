@@ -77,6 +77,33 @@ def test_local_cluster_batch_equals_the_api_and_reports_failures(cluster, tmp_pa
     assert next(o for o in again if o.status == "done").output == outcomes[2].output
 
 
+def _profiler_running(worker) -> str:
+    return "".join("1" if key in worker.periodic_callbacks and worker.periodic_callbacks[key].is_running()
+                   else "0" for key in ("profile", "profile-cycle"))
+
+
+@pytest.mark.parametrize("worker_profiler", [False, True])
+def test_the_workers_profiler_is_paused_for_a_run_and_restarted_after(cluster, tmp_path,
+                                                                     monkeypatch, worker_profiler):
+    def states():
+        return set(cluster.run(lambda dask_worker: _profiler_running(dask_worker)).values())
+
+    assert states() == {"11"}  # Dask's default: sampling, and filing the samples
+    seen = []
+
+    def spy(*task):  # what a task's worker runs meanwhile (the workers are in this process)
+        seen.append(_profiler_running(distributed.get_worker()))
+        return liff.cli.detect.Detected(0, (0.0, 0.0))
+
+    monkeypatch.setattr(liff.cli.detect, "detect_one", spy)
+    paths = write_light_fields(tmp_path, 2)
+    tasks = [batch.Task(p, p + ".npz", None, {}, False, {}) for p in paths]
+    outcomes = batch.run(tasks, cluster, worker_profiler=worker_profiler)
+    assert [o.status for o in outcomes] == ["done", "done"]
+    assert set(seen) == ({"11"} if worker_profiler else {"00"})
+    assert states() == {"11"}  # as the workers had it
+
+
 def test_a_task_takes_its_workers_threads_and_memory(tmp_path, monkeypatch):
     """A worker's thread count becomes LiFF's; its memory limit bounds each task, so a
     light field too large for the worker fails with MemoryError instead of killing it."""

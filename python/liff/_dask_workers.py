@@ -1,0 +1,43 @@
+"""What a liff run changes on the Dask workers it uses, and puts back after
+(:func:`liff.batch.run`).
+
+Dask's workers sample the stacks of their task threads every 10 ms
+(``distributed.worker.profile``) for the dashboard's profile page. A liff task is one
+call into C++, which those samples cannot see into, and on a busy worker the sampling
+runs on the worker's event loop, competing with the task for the cores: 11-13% of a
+one-thread detection's time in benchmarks/batch.py on our 2-core machine (docs/BATCH.md,
+docs/BENCHMARKS.md). So for the run the profiler is paused.
+"""
+
+from __future__ import annotations
+
+from distributed.diagnostics.plugin import WorkerPlugin
+
+#: The worker's periodic callbacks that drive its statistical profiler
+#: (distributed's worker.py: ``periodic_callbacks["profile"]`` samples, ``"profile-cycle"``
+#: files the samples away).
+PROFILER_CALLBACKS = ("profile", "profile-cycle")
+
+
+class PausedProfiler(WorkerPlugin):
+    """A worker plugin: the worker's statistical profiler stops while the plugin is
+    registered (from setup to teardown); workers that join meanwhile get it too.
+    The callbacks are taken out of the worker's table, so a worker still starting does
+    not start them, and put back (and started) at teardown."""
+
+    name = "liff-paused-profiler"
+
+    def setup(self, worker) -> None:
+        self._paused = {}
+        for key in PROFILER_CALLBACKS:
+            callback = worker.periodic_callbacks.pop(key, None)
+            if callback is not None:
+                callback.stop()
+                self._paused[key] = callback
+
+    def teardown(self, worker) -> None:
+        for key, callback in getattr(self, "_paused", {}).items():
+            worker.periodic_callbacks[key] = callback
+            if worker.status.name in ("running", "paused"):
+                callback.start()
+        self._paused = {}

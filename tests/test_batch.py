@@ -104,13 +104,39 @@ def test_the_workers_profiler_is_paused_for_a_run_and_restarted_after(cluster, t
     assert states() == {"11"}  # as the workers had it
 
 
+def test_a_terminated_run_restores_the_workers_profiler(tmp_path):
+    """SIGTERM (kill, timeout, a batch system's cancel) ends `liff detect --scheduler` as
+    Ctrl-C does: exit status 143, and the workers' profiler, paused for the run, runs
+    again."""
+    write_light_fields(tmp_path / "in", 16, (7, 7, 160, 200))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  protocol="tcp://", dashboard_address=":0") as local, \
+            distributed.Client(local) as client:
+        def states():
+            return set(client.run(lambda dask_worker: _profiler_running(dask_worker)).values())
+
+        run = subprocess.Popen([sys.executable, "-m", "liff", "detect", str(tmp_path / "in"),
+                                "--out", str(tmp_path / "out"), "--scheduler",
+                                local.scheduler_address],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        deadline = time.time() + 60
+        while states() != {"00"} and time.time() < deadline and run.poll() is None:
+            time.sleep(0.05)
+        assert states() == {"00"}, "the run did not pause the profiler"
+        run.send_signal(signal.SIGTERM)
+        _, err = run.communicate(timeout=60)
+        assert run.returncode == 128 + signal.SIGTERM and "liff detect: terminated" in err
+        assert "Traceback" not in err
+        assert states() == {"11"}
+
+
 def test_a_task_takes_its_workers_threads_and_memory(tmp_path, monkeypatch):
     """A worker's thread count becomes LiFF's; its memory limit bounds each task, so a
     light field too large for the worker fails with MemoryError instead of killing it."""
     small = write_light_fields(tmp_path, 1, (3, 3, 32, 32), "small")
     large = write_light_fields(tmp_path, 1, (3, 3, 512, 512), "large")  # needs about 150 MB
     held = _allocator.held_bytes()  # as the task counts it: free heap memory is reused
-    limit = int((held + 60 * 2**20) / batch.MEMORY_SHARE)  # about 60 MB for each task
+    limit = int((held + 90 * 2**20) / batch.MEMORY_SHARE)  # about 90 MB for each task
     threads, budget = liff.getNumThreads(), liff.cli.common.memory_budget_bytes
     # The worker shares this test process, already near the limit: Dask must not pause it.
     no_pausing = {f"distributed.worker.memory.{k}": False for k in ("target", "spill", "pause",
@@ -134,12 +160,40 @@ def test_a_task_takes_its_workers_threads_and_memory(tmp_path, monkeypatch):
             client.submit(batch.run_task, batch.Task(*small * 2, None, {}, False, {}),
                           pure=False).result()
             threads_seen, before, after, _ = seen[0]
-            assert threads_seen == 3 and 1 <= before <= 60  # threads; MB left of the limit
+            assert threads_seen == 3 and 1 <= before <= 90  # threads; MB left of the limit
             assert before - after >= 20  # the input read counts against the task's memory
     finally:
         assert (liff.getNumThreads(), liff.cli.common.memory_budget_bytes) == (threads, budget)
     assert [o.status for o in outcomes] == ["done", "failed"]
     assert outcomes[1].error.startswith("MemoryError") and "MB" in outcomes[1].error
+
+
+def test_a_copy_detection_needs_is_made_before_the_memory_limit(tmp_path, monkeypatch):
+    """A Fortran-order .npy (np.save of a transposed array) is copied to C order before
+    the detector is made, so the copy counts in what the process holds (a 141 MB one
+    had a 500 MB Dask worker killed); the features are those of the C-order array."""
+    from liff._detector import as_read_in_place
+
+    lf = liff.synthetic.textured_layers((3, 3, 64, 80), seed=3).light_field
+    np.save(tmp_path / "c.npy", lf)
+    np.save(tmp_path / "f.npy", np.asfortranarray(lf))
+    arrays = []
+    make = liff.cli.common.make_detector
+
+    def spy(parameters):  # the light field as it is when the limit is set
+        arrays.append(sys._getframe(1).f_locals["light_field"])
+        return make(parameters)
+
+    monkeypatch.setattr(liff.cli.common, "make_detector", spy)
+    for name in ("c", "f"):
+        liff.cli.detect.detect_one(str(tmp_path / f"{name}.npy"), str(tmp_path / f"{name}.npz"),
+                                   None, {}, False, {})
+    assert all(a.flags.c_contiguous for a in arrays)
+    assert np.array_equal(load_features(tmp_path / "c.npz").descriptors,
+                          load_features(tmp_path / "f.npz").descriptors)
+    assert as_read_in_place(lf) is lf
+    swapped = lf.astype(lf.dtype.newbyteorder(">"))
+    assert as_read_in_place(swapped).dtype.isnative and np.array_equal(as_read_in_place(swapped), lf)
 
 
 def test_inputs_from_folders_globs_and_a_list(tmp_path, capsys):
@@ -172,6 +226,18 @@ def test_a_folder_input_finds_light_fields_in_its_sub_folders(tmp_path):
     os.symlink(tmp_path / "data", tmp_path / "data" / "scene_b" / "up")
     found = expand_inputs([str(tmp_path / "data")], {})
     assert found == nested + deeper + [str(views)] + top
+
+
+def test_a_recursive_glob_does_not_follow_links_back_up(tmp_path):
+    """glob's ** follows links to folders: two links back up made it run for ever."""
+    from liff.cli.common import expand_inputs
+
+    paths = write_light_fields(tmp_path / "data" / "scene", 1)
+    for name in ("up1", "up2"):
+        os.symlink(tmp_path / "data", tmp_path / "data" / "scene" / name)
+    (tmp_path / "data" / ".hidden").mkdir()
+    write_light_fields(tmp_path / "data" / ".hidden", 1)
+    assert expand_inputs([str(tmp_path / "data" / "**" / "*.npy")], {}) == paths
 
 
 def test_batch_detect_takes_one_path_and_refuses_bad_arguments_up_front(tmp_path):
@@ -255,6 +321,15 @@ def test_a_scheduler_without_workers_says_so_and_waits_for_them(tmp_path):
     assert len(notices) == 1 and "no Dask worker has joined" in notices[0]
     assert "dask worker" in notices[0]
     assert [o.status for o in outcomes] == ["done", "done"]
+
+
+@pytest.mark.parametrize("address", ["foo", "tcp://", "http://127.0.0.1:8787",
+                                     "tcp://127.0.0.1:8786/extra"])
+def test_what_is_not_a_scheduler_address_is_refused_at_once(address):
+    start = time.perf_counter()
+    with pytest.raises(ValueError, match="is not an address of a Dask scheduler.*expected"):
+        batch.connect(address)
+    assert time.perf_counter() - start < 5
 
 
 def _free_port():

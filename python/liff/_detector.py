@@ -66,12 +66,20 @@ def _as_light_field(lf) -> np.ndarray:
         lf = np.asarray(lf)
     if lf.dtype.kind == "b":
         raise ValueError("light field dtype is bool; expected uint8, uint16, float32 or float64")
-    if not lf.dtype.isnative:
-        lf = lf.astype(lf.dtype.newbyteorder("="))
+    lf = as_read_in_place(lf)
     # Warn (never fail) when the values do not fill the range the dtype is read on.
     from .io.intensity import check_intensity
 
     check_intensity(lf, stacklevel=4)
+    return lf
+
+
+def as_read_in_place(lf: np.ndarray) -> np.ndarray:
+    """``lf`` itself if the core reads it in place (C-contiguous, native byte order),
+    else such a copy: what detection copies first, which a caller bounding memory
+    (liff.batch) makes before the detector's memory limit is set, so that it counts."""
+    if not lf.dtype.isnative:
+        lf = lf.astype(lf.dtype.newbyteorder("="))
     # (np.ascontiguousarray would turn a 0-d array into shape (1,).)
     return lf if lf.flags.c_contiguous else np.ascontiguousarray(lf)
 

@@ -197,6 +197,17 @@ def _identify_scheduler(address: str, expected: str) -> dict:
     from concurrent.futures import ThreadPoolExecutor
 
     from distributed.comm import connect as open_comm
+    from distributed.comm import registry
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:  # what Dask would refuse before connecting: a scheme it lacks, no port
+        scheme, location = parse_address(address)
+        registry.get_backend(scheme)
+        if scheme in ("tcp", "tls"):
+            parse_host_port(location)
+    except (ValueError, TypeError) as error:
+        raise ValueError(f"{address!r} is not an address of a Dask scheduler ({error}); "
+                         f"{expected}") from None
 
     async def identify():
         comm = await open_comm(address, timeout=CONNECT_TIMEOUT)
@@ -254,7 +265,9 @@ def _profiler_paused(client):
     until the block ends."""
     from ._dask_workers import PausedProfiler
 
-    client.register_plugin(PausedProfiler(), name=PausedProfiler.name)
+    # (register_plugin since distributed 2023.9.2; register_worker_plugin before it)
+    register = getattr(client, "register_plugin", None) or client.register_worker_plugin
+    register(PausedProfiler(), name=PausedProfiler.name)
     try:
         yield
     finally:

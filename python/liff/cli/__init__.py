@@ -9,7 +9,9 @@ missing optional dependency (``liff sfm`` without pycolmap).
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 from typing import List, Optional
 
 from .. import __version__, opencvVersion
@@ -30,13 +32,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (kill, timeout, a batch system's cancel), raised where the command is, as
+    Ctrl-C is: cleanups run (a Dask run restores its workers' profiler) and partial
+    outputs are left only under hidden temporary names."""
+
+
+def _terminate(signum, frame):
+    raise Terminated
+
+
 def main(argv: Optional[List[str]] = None) -> int:
     args = build_parser().parse_args(argv)
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
     try:
         return int(args.run(args) or 0)
+    except Terminated:
+        print(f"liff {args.command}: terminated", file=sys.stderr)
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
         print(f"liff {args.command}: interrupted", file=sys.stderr)
         return 130
     except (ValueError, OSError, MemoryError, ImportError) as error:
         print(f"liff {args.command}: {common.name_flags(str(error))}", file=sys.stderr)
         return 1
+    finally:
+        if in_main_thread:  # (None: a handler not set from Python; the default stands for it)
+            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)

@@ -248,8 +248,12 @@ def make_detector(parameters: dict) -> LiFF:
     if memory_budget_bytes is not None:
         from .. import _allocator
 
-        left = memory_budget_bytes - _allocator.held_bytes()
-        detector.setMemoryLimitMB(max(1, int(left / 2**20)))
+        held = _allocator.held_bytes()
+        if held >= memory_budget_bytes:
+            raise MemoryError(f"the process holds {held / 1e6:.0f} MB with the light field "
+                              f"read, all of its memory budget of {memory_budget_bytes / 1e6:.0f} "
+                              "MB, leaving LiFF none; expected more memory for the task")
+        detector.setMemoryLimitMB(max(1, int((memory_budget_bytes - held) / 2**20)))
     return detector
 
 
@@ -277,10 +281,14 @@ def is_light_field_folder(folder: str, options: dict) -> bool:
     ``--format`` names a one-file format; else it is a folder of light fields."""
     if options.get("format") not in (None, "hci", "views"):
         return False
-    with os.scandir(folder) as entries:
-        return any(e.is_file() and e.name.lower().endswith(IMAGE_SUFFIXES)
-                   and ".eslf." not in e.name.lower() and not e.name.startswith(".")
-                   for e in entries)
+    try:
+        with os.scandir(folder) as entries:
+            return any(e.is_file() and e.name.lower().endswith(IMAGE_SUFFIXES)
+                       and ".eslf." not in e.name.lower() and not e.name.startswith(".")
+                       for e in entries)
+    except OSError as error:
+        raise ValueError(f"{folder}: cannot list the folder ({error.strerror}); expected a "
+                         "readable folder of light fields or of views") from None
 
 
 def _folder_entries(folder: str, options: dict, seen: Optional[set] = None) -> List[str]:
@@ -294,7 +302,11 @@ def _folder_entries(folder: str, options: dict, seen: Optional[set] = None) -> L
     if os.path.realpath(folder) in seen:  # a link back up: a cycle
         return []
     seen.add(os.path.realpath(folder))
-    names = sorted(n for n in os.listdir(folder) if not n.startswith("."))
+    try:
+        names = sorted(n for n in os.listdir(folder) if not n.startswith("."))
+    except OSError as error:
+        raise ValueError(f"{folder}: cannot list the folder ({error.strerror}); expected a "
+                         "readable folder of light fields") from None
     found: List[str] = []
     for path in (os.path.join(folder, n) for n in names):
         if not os.path.isdir(path):
@@ -332,7 +344,7 @@ def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] 
     found: List[str] = []
     for path in paths:
         if not os.path.exists(path) and glob.has_magic(path):
-            matches = sorted(glob.glob(path, recursive=True))
+            matches = _glob(path)
             if not matches:
                 raise ValueError(f"{path}: no file matches the pattern; expected light fields")
             found += matches
@@ -350,6 +362,25 @@ def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] 
             seen.add(os.path.realpath(path))
             unique.append(path)
     return unique
+
+
+def _glob(pattern: str) -> List[str]:
+    """``glob.glob(pattern, recursive=True)``, sorted, except that ``**`` does not descend
+    into symbolic links to folders (glob's does, and a link back up makes it loop, for
+    ever with two such links): ``**`` goes through pathlib, which does not follow them.
+    As with glob, hidden names match only a pattern with a part starting with '.'."""
+    import glob
+    from pathlib import Path
+
+    if "**" not in pattern:
+        return sorted(glob.glob(pattern))
+    parts = Path(pattern).parts
+    first = next(i for i, part in enumerate(parts) if glob.has_magic(part))
+    base, rest = Path(*parts[:first]) if first else Path("."), parts[first:]
+    hidden_asked = any(part.startswith(".") for part in rest)
+    return sorted(str(match) for match in base.glob(str(Path(*rest)))
+                  if hidden_asked or not any(name.startswith(".")
+                                             for name in match.relative_to(base).parts))
 
 
 def expand_args(args: argparse.Namespace, options: dict, from_list: Optional[str] = None) -> None:
@@ -392,7 +423,7 @@ def modified_after(source: str, output: str) -> bool:
 
 def input_identity(source: str) -> Optional[str]:
     """The input's size and modification time (ns): of the file, or of every file in the
-    folder, with their names (a digest). An output records it, and a re-run redoes the
+    folder but hidden ones (.DS_Store), with their names (a digest). An output records it, and a re-run redoes the
     output when it differs either way: a replaced input with an older time (``cp -p``,
     ``rsync -a``, ``mv``) is caught, as a newer one is. None if ``source`` is missing."""
     import hashlib
@@ -403,7 +434,7 @@ def input_identity(source: str) -> Optional[str]:
             return f"{stat.st_size}:{stat.st_mtime_ns}"
         with os.scandir(source) as entries:
             listing = sorted((e.name, e.stat().st_size, e.stat().st_mtime_ns)
-                             for e in entries if e.is_file())
+                             for e in entries if e.is_file() and not e.name.startswith("."))
     except OSError:
         return None
     return "folder:" + hashlib.sha256(repr(listing).encode()).hexdigest()[:32]

@@ -10,8 +10,10 @@ import warnings
 from typing import List, NamedTuple, Optional, Tuple
 
 import cv2
+import numpy as np
 
 from .. import __version__, batch
+from .._detector import as_read_in_place
 from .._warnings import LiffWarning
 from ..feature_file import Features, centre_view, read_meta, save_features
 from ..io.images import write_image
@@ -99,6 +101,8 @@ def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
     """Reads, detects and writes one light field; returns what it found."""
     identity = common.input_identity(path)  # before reading: a change meanwhile is redone
     light_field, metadata = common.read_input(path, options, preprocess)
+    if isinstance(light_field, np.ndarray):  # a copy detection would make counts (Fortran order)
+        light_field = as_read_in_place(light_field)
     resolved, slopes_from = common.slope_range(parameters, metadata)
     detector = common.make_detector(resolved)
     with warnings.catch_warnings(record=True) as caught:
@@ -284,6 +288,9 @@ def describe_slopes(outcome: batch.Outcome) -> str:
 def run(args: argparse.Namespace) -> int:
     if not args.paths and not args.from_list:
         args.parser.error("the following arguments are required: PATH (or --from-list FILE)")
+    if args.scheduler is not None and not args.scheduler.strip():
+        args.parser.error("--scheduler is empty; expected a Dask scheduler's address, e.g. "
+                          "tcp://10.0.0.5:8786 (or no --scheduler for local processes)")
     common.make_detector(common.detector_parameters(args))  # bad parameters: before any reading
     mask.check_mask_option(getattr(args, "mask", None))
     tasks, kept, redo = plan(args, common.reader_options(args),

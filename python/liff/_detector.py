@@ -78,8 +78,8 @@ def as_read_in_place(lf: np.ndarray) -> np.ndarray:
     """``lf`` itself if the core reads it in place (C-contiguous, native byte order),
     else such a copy: what detection copies first, which a caller bounding memory
     (liff.batch) makes before the detector's memory limit is set, so that it counts."""
-    if not lf.dtype.isnative:
-        lf = lf.astype(lf.dtype.newbyteorder("="))
+    if not lf.dtype.isnative:  # (one copy, in C order)
+        return lf.astype(lf.dtype.newbyteorder("="), order="C")
     # (np.ascontiguousarray would turn a 0-d array into shape (1,).)
     return lf if lf.flags.c_contiguous else np.ascontiguousarray(lf)
 

@@ -209,8 +209,11 @@ def _identify_scheduler(address: str, expected: str) -> dict:
         raise ValueError(f"{address!r} is not an address of a Dask scheduler ({error}); "
                          f"{expected}") from None
 
-    async def identify():
-        comm = await open_comm(address, timeout=CONNECT_TIMEOUT)
+    from distributed.security import Security
+
+    async def identify():  # (Dask's security settings, as a Client takes them: tls://)
+        comm = await open_comm(address, timeout=CONNECT_TIMEOUT,
+                               **Security().get_connection_args("client"))
         try:
             await comm.write({"op": "identity", "reply": True})
             return await comm.read()
@@ -231,7 +234,7 @@ def _identify_scheduler(address: str, expected: str) -> dict:
         except Exception as error:  # e.g. MemoryError: an HTTP reply read as a frame length
             raise ValueError(f"{address} answered, but not as a Dask scheduler ("
                              f"{type(error).__name__} reading its reply); {expected}") from None
-    if not isinstance(identity, dict) or identity.get("type") != "Scheduler":
+    if not isinstance(identity, dict) or "Scheduler" not in str(identity.get("type")):
         raise ValueError(f"{address} answered, but not as a Dask scheduler; {expected}")
     return identity
 
@@ -267,8 +270,8 @@ def _profiler_paused(client):
 
     # (register_plugin since distributed 2023.9.2; register_worker_plugin before it)
     register = getattr(client, "register_plugin", None) or client.register_worker_plugin
-    register(PausedProfiler(), name=PausedProfiler.name)
-    try:
+    try:  # (registering inside: an interrupt meanwhile still unregisters)
+        register(PausedProfiler(), name=PausedProfiler.name)
         yield
     finally:
         try:
@@ -288,7 +291,7 @@ def _run_on(client, tasks: Sequence[Task], progress, notice) -> List[Outcome]:
         else:
             from ._warnings import LiffWarning
 
-            warnings.warn(text, LiffWarning, stacklevel=4)
+            warnings.warn(text, LiffWarning, stacklevel=3)  # (the caller of run)
     return _gather(client, tasks, progress)
 
 

@@ -9,6 +9,7 @@ import os
 import re
 import sys
 import time
+import warnings
 from contextlib import contextmanager
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
@@ -312,10 +313,14 @@ def _folder_entries(folder: str, options: dict, seen: Optional[set] = None) -> L
         if not os.path.isdir(path):
             if guess_format(path) is not None:
                 found.append(path)
-        elif is_light_field_folder(path, options):
-            found.append(path)
-        else:
-            found += _folder_entries(path, options, seen)
+            continue
+        try:
+            found += [path] if is_light_field_folder(path, options) else \
+                _folder_entries(path, options, seen)
+        except ValueError as error:  # an unreadable sub-folder (lost+found): the rest go on
+            from .._warnings import LiffWarning
+
+            warnings.warn(f"{error}; skipped", LiffWarning, stacklevel=2)
     return found
 
 
@@ -372,9 +377,9 @@ def _glob(pattern: str) -> List[str]:
     import glob
     from pathlib import Path
 
-    if "**" not in pattern:
-        return sorted(glob.glob(pattern))
     parts = Path(pattern).parts
+    if "**" not in parts:  # (** inside a name is *, for glob as for pathlib)
+        return sorted(glob.glob(pattern))
     first = next(i for i, part in enumerate(parts) if glob.has_magic(part))
     base, rest = Path(*parts[:first]) if first else Path("."), parts[first:]
     hidden_asked = any(part.startswith(".") for part in rest)
@@ -486,8 +491,9 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
         # Each worker gets its share of the cores: LiFF uses all of them by default, and
         # N processes that each did would oversubscribe the machine N times over.
         threads = max(1, (os.cpu_count() or 1) // workers)
-        with ProcessPoolExecutor(max_workers=workers, initializer=_set_threads,
-                                 initargs=(threads,)) as pool:
+        pool = ProcessPoolExecutor(max_workers=workers, initializer=_set_threads,
+                                   initargs=(threads,))
+        try:
             futures = {pool.submit(function, *job): i for i, job in enumerate(jobs)}
             for future in as_completed(futures):
                 i = futures[future]
@@ -497,14 +503,27 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
                     report(i, error)
                 if progress:
                     progress.update()
+        except BaseException:  # Ctrl-C, SIGTERM: stop now, not after the queued jobs
+            processes = list((getattr(pool, "_processes", None) or {}).values())
+            pool.shutdown(wait=False, cancel_futures=True)
+            for process in processes:
+                process.terminate()
+            raise
+        pool.shutdown()
     if progress:
         progress.close()
     return results, failures
 
 
 def _set_threads(threads: int) -> None:
-    """Worker initializer: LiFF's thread count for this process."""
+    """Worker initializer: LiFF's thread count for this process, and SIGTERM's default
+    action (a forked worker inherits the CLI's handler, which would let it finish its
+    light field before the pool could end it)."""
+    import signal
+
     import liff
+
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
     liff.setNumThreads(threads)
 

@@ -428,9 +428,10 @@ def modified_after(source: str, output: str) -> bool:
 
 def input_identity(source: str) -> Optional[str]:
     """The input's size and modification time (ns): of the file, or of every file in the
-    folder but hidden ones (.DS_Store), with their names (a digest). An output records it, and a re-run redoes the
-    output when it differs either way: a replaced input with an older time (``cp -p``,
-    ``rsync -a``, ``mv``) is caught, as a newer one is. None if ``source`` is missing."""
+    folder but hidden ones (.DS_Store), with their names (a digest). An output records
+    it, and a re-run redoes the output when it differs either way: a replaced input with
+    an older time (``cp -p``, ``rsync -a``, ``mv``) is caught, as a newer one is. None if
+    ``source`` is missing."""
     import hashlib
 
     try:

@@ -78,8 +78,9 @@ def test_local_cluster_batch_equals_the_api_and_reports_failures(cluster, tmp_pa
 
 
 def _profiler_running(worker) -> str:
-    return "".join("1" if key in worker.periodic_callbacks and worker.periodic_callbacks[key].is_running()
-                   else "0" for key in ("profile", "profile-cycle"))
+    callbacks = worker.periodic_callbacks
+    return "".join("1" if key in callbacks and callbacks[key].is_running() else "0"
+                   for key in ("profile", "profile-cycle"))
 
 
 @pytest.mark.parametrize("worker_profiler", [False, True])
@@ -216,7 +217,8 @@ def test_a_copy_detection_needs_is_made_before_the_memory_limit(tmp_path, monkey
                           load_features(tmp_path / "f.npz").descriptors)
     assert as_read_in_place(lf) is lf
     swapped = lf.astype(lf.dtype.newbyteorder(">"))
-    assert as_read_in_place(swapped).dtype.isnative and np.array_equal(as_read_in_place(swapped), lf)
+    native = as_read_in_place(swapped)
+    assert native.dtype.isnative and native.flags.c_contiguous and np.array_equal(native, lf)
 
 
 def test_inputs_from_folders_globs_and_a_list(tmp_path, capsys):

@@ -100,3 +100,43 @@ def test_free_memory_is_not_counted_as_held():
     assert _allocator.free_heap_bytes() > 0
     assert 0 <= _allocator.held_bytes() <= psutil.Process().memory_info().rss
 
+
+
+# Free memory in a thread arena's heap, then part of it madvised as numpy does for its
+# large arrays (huge pages), which splits the heap's mapping in /proc/self/maps: the
+# free memory counted before and after, in a fresh process.
+SPLIT_HEAP_SCRIPT = r"""
+import ctypes, json, mmap, threading
+from liff import _allocator
+_allocator.reuse_freed_memory(2**30)
+libc = ctypes.CDLL("libc.so.6")
+libc.malloc.restype = ctypes.c_void_p
+libc.free.argtypes = [ctypes.c_void_p]
+libc.madvise.argtypes = [ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int]
+sizes = {}
+def in_a_thread():
+    size = 24 * 2**20
+    block = libc.malloc(size)
+    ctypes.memset(block, 1, size)  # resident
+    keep = libc.malloc(4096)  # (so that the block is not the heap's top alone)
+    libc.free(block)
+    sizes["before"] = _allocator.free_heap_bytes()
+    page = mmap.PAGESIZE
+    middle = (block + 8 * 2**20) // page * page
+    sizes["madvise"] = libc.madvise(middle, 8 * 2**20, 14)  # MADV_HUGEPAGE
+    sizes["after"] = _allocator.free_heap_bytes()
+thread = threading.Thread(target=in_a_thread)
+thread.start()
+thread.join()
+print(json.dumps(sizes))
+"""
+
+
+def test_a_heap_split_by_madvise_still_counts_as_free():
+    out = subprocess.run([sys.executable, "-c", SPLIT_HEAP_SCRIPT], capture_output=True,
+                         text=True, check=True, timeout=120)
+    sizes = json.loads(out.stdout.strip().splitlines()[-1])
+    if sizes["madvise"] != 0:
+        pytest.skip("madvise(MADV_HUGEPAGE) refused here (no transparent huge pages)")
+    assert sizes["before"] >= 20 * 2**20
+    assert sizes["after"] >= sizes["before"] - 2**20

@@ -109,15 +109,18 @@ def release_excess() -> None:
 
 
 def _is_thread_heap(memory: int, start: int, end: int) -> bool:
-    """Whether the read-write mapping [start, end) is a glibc thread arena's heap: it
-    starts at a multiple of THREAD_HEAP_BYTES with glibc's heap_info {arena, previous
-    heap, size, mprotect_size} (malloc/arena.c), sizes within a heap's. Read through
+    """Whether the read-write mapping [start, end) is (part of) a glibc thread arena's
+    heap: the multiple of THREAD_HEAP_BYTES at or below ``start`` holds glibc's
+    heap_info {arena, previous heap, size, mprotect_size} (malloc/arena.c), sizes within
+    a heap's. A heap can show as several mappings: madvise of part of it (numpy asks
+    for huge pages for its large arrays) splits the kernel's record of it. Read through
     /proc/self/mem (file descriptor ``memory``), not at the address: another thread may
     unmap the region meanwhile, which is then an error here, not a crash."""
-    if start % THREAD_HEAP_BYTES or end - start > 2 * THREAD_HEAP_BYTES:
+    base = start - start % THREAD_HEAP_BYTES
+    if end - base > 2 * THREAD_HEAP_BYTES:
         return False
     try:
-        header = os.pread(memory, 4 * ctypes.sizeof(ctypes.c_size_t), start)
+        header = os.pread(memory, 4 * ctypes.sizeof(ctypes.c_size_t), base)
     except OSError:
         return False
     if len(header) < 4 * ctypes.sizeof(ctypes.c_size_t):
@@ -128,8 +131,8 @@ def _is_thread_heap(memory: int, start: int, end: int) -> bool:
 
 def _heap_resident_bytes(libc: ctypes.CDLL) -> Optional[int]:
     """Resident bytes of the allocator's heaps: the main arena's (``[heap]`` in
-    /proc/self/maps) and the thread arenas' (anonymous read-write mappings that start at a
-    multiple of THREAD_HEAP_BYTES, where glibc maps them), page by page with mincore(2);
+    /proc/self/maps) and the thread arenas' (anonymous read-write mappings within a
+    heap, which glibc maps at multiples of THREAD_HEAP_BYTES), page by page with mincore(2);
     None without /proc. (/proc/self/smaps says the same but takes 5-10 times longer.)"""
     try:
         with open("/proc/self/maps") as maps:

@@ -460,6 +460,13 @@ def check_output_folder(given: Optional[str], suffix: str, inputs: int, option: 
                          "nothing was written")
 
 
+def error_line(command: str, name: str, error: str) -> str:
+    """``liff <command>: <name>: <error>``, naming the input once: readers' messages
+    already start with its path."""
+    text = name_flags(error)
+    return f"liff {command}: " + (text if text.startswith(name) else f"{name}: {text}")
+
+
 def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: str,
               label: Callable[[tuple], str]) -> Tuple[List, int]:
     """Runs ``function(*job)`` for every job, on ``workers`` processes (1 = here), with a
@@ -475,9 +482,7 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
     def report(i: int, error: BaseException) -> None:
         nonlocal failures
         failures += 1
-        name, text = label(jobs[i]), name_flags(str(error))
-        # readers' messages already start with the path
-        message = f"liff {command}: " + (text if text.startswith(name) else f"{name}: {text}")
+        message = error_line(command, label(jobs[i]), str(error))
         (progress.write(message, file=sys.stderr) if progress else print(message, file=sys.stderr))
 
     if workers <= 1 or len(jobs) <= 1:

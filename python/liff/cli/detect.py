@@ -10,7 +10,6 @@ import warnings
 from typing import List, NamedTuple, Optional, Tuple
 
 import cv2
-import numpy as np
 
 from .. import __version__, batch
 from .._detector import as_read_in_place
@@ -101,8 +100,8 @@ def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
     """Reads, detects and writes one light field; returns what it found."""
     identity = common.input_identity(path)  # before reading: a change meanwhile is redone
     light_field, metadata = common.read_input(path, options, preprocess)
-    if isinstance(light_field, np.ndarray):  # a copy detection would make counts (Fortran order)
-        light_field = as_read_in_place(light_field)
+    # A copy detection would make (Fortran order) is made now, so that it counts.
+    light_field = as_read_in_place(light_field)
     resolved, slopes_from = common.slope_range(parameters, metadata)
     detector = common.make_detector(resolved)
     with warnings.catch_warnings(record=True) as caught:
@@ -242,12 +241,9 @@ def run_tasks(tasks: List[batch.Task], args: argparse.Namespace) -> List[batch.O
 
 
 def failure_line(outcome: batch.Outcome) -> str:
-    """``liff detect: <input>: <error>`` for a failed task, as other liff errors read:
-    without the type of a ValueError (the manifest keeps it) and with the input named
-    once (readers' messages already start with it)."""
-    error = common.name_flags(outcome.error.removeprefix("ValueError: "))
-    return "liff detect: " + (error if error.startswith(outcome.input) else
-                              f"{outcome.input}: {error}")
+    """``liff detect: <input>: <error>`` for a failed task, as other liff errors read
+    (:func:`common.error_line`), without the type of a ValueError (the manifest keeps it)."""
+    return common.error_line("detect", outcome.input, outcome.error.removeprefix("ValueError: "))
 
 
 def manifest_path(args: argparse.Namespace) -> Optional[str]:

@@ -5,8 +5,8 @@ Dask's workers sample the stacks of their task threads every 10 ms
 (``distributed.worker.profile``) for the dashboard's profile page. A liff task is one
 call into C++, which those samples cannot see into, and on a busy worker the sampling
 runs on the worker's event loop, competing with the task for the cores: Dask's own CPU
-in a worker was 43 ms per Illum-size task with it and 23 ms without, against LiFF's
-0.81 s (benchmarks/batch.py; docs/BENCHMARKS.md). So for the run it is paused. (On
+in a worker was 43-48 ms per Illum-size task with it and 23 ms without, against LiFF's
+0.73-0.81 s (benchmarks/batch.py; docs/BENCHMARKS.md). So for the run it is paused. (On
 Python versions other than 3.11, distributed also samples its event loop's own thread
 from a thread of its own; that sampler is left running.)
 """

@@ -249,7 +249,7 @@ def run(tasks: Sequence[Task], client, progress=None, notice=None,
     tasks wait for workers to join); by default a :class:`liff.LiffWarning`.
     ``worker_profiler``: leave the workers' statistical profiler running. By default it
     is paused for the run and restarted after (:mod:`liff._dask_workers`: it cannot see
-    into LiFF's C++, and it nearly doubles Dask's own processor time in a worker, 43
+    into LiFF's C++, and it about doubles Dask's own processor time in a worker, 43-48
     against 23 ms per Illum-size task in benchmarks/batch.py)."""
     own = not _is_client(client)  # made here from an address: closed here
     client = connect(client)

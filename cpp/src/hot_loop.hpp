@@ -5,6 +5,8 @@
 
 #if defined(__x86_64__) && defined(__linux__) && (defined(__GNUC__) || defined(__clang__))
 #define LIFF_HOT_LOOP __attribute__((target_clones("avx2", "default")))
+#define LIFF_FMA_LOOP __attribute__((target_clones("arch=x86-64-v3", "default")))
 #else
 #define LIFF_HOT_LOOP
+#define LIFF_FMA_LOOP
 #endif

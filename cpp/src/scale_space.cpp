@@ -1,39 +1,13 @@
 #include "scale_space.hpp"
 
-#include <opencv2/imgproc.hpp>
-
+#include <algorithm>
 #include <cmath>
+
+#include "blur.hpp"
+#include "profile.hpp"
 
 namespace liff {
 namespace detail {
-namespace {
-
-// Rows per parallel task of a blur. Each stripe also filters the kernel radius (up to
-// 12 rows at octave -1) above and below it horizontally, so stripes are kept tall.
-constexpr int kBlurRows = 64;
-
-// cv::GaussianBlur, split into row stripes run in parallel when `rowParallel`. OpenCV
-// filters a sub-matrix with the pixels of its parent beyond the stripe, so the result
-// is identical to one call on the whole image, whatever the split.
-void gaussianBlur(const cv::Mat& src, cv::Mat& dst, double sigmaX, double sigmaY,
-                  bool rowParallel) {
-  if (!rowParallel || src.rows < 2 * kBlurRows) {
-    cv::GaussianBlur(src, dst, cv::Size(), sigmaX, sigmaY);
-    return;
-  }
-  dst.create(src.size(), src.type());
-  const int tasks = (src.rows + kBlurRows - 1) / kBlurRows;
-  cv::parallel_for_(cv::Range(0, tasks), [&](const cv::Range& range) {
-    for (int task = range.start; task < range.end; ++task) {
-      const int r0 = task * kBlurRows, r1 = std::min(src.rows, r0 + kBlurRows);
-      cv::Mat stripe = dst.rowRange(r0, r1);
-      cv::GaussianBlur(src.rowRange(r0, r1), stripe, cv::Size(), sigmaX, sigmaY);
-    }
-  });
-}
-
-}  // namespace
-
 int numOctaves(cv::Size viewSize) {
   const double baseMin = std::min(viewSize.width, viewSize.height) * std::ldexp(1.0, -kFirstOctave);
   return std::max(0, cvRound(std::log2(baseMin) - 2) - kFirstOctave);
@@ -49,72 +23,128 @@ cv::Mat imageIn(const cv::Mat& buffer, cv::Size size) {
 
 }  // namespace
 
-void buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
-                     cv::Vec2d variance, cv::Vec2d targetVariance, bool detectionOnly,
-                     bool rowParallel, ScaleSpace& space, BuildScratch* scratch) {
-  CV_Assert(slice.type() == CV_32F && layers >= 1 && octaves >= 1);
-  space.octaves = octaves;
-  space.layers = layers;
-  space.gaussians.resize(size_t(octaves) * (layers + 3));
-  space.dogs.resize(size_t(octaves) * (layers + 2));
+namespace {
+
+// Rows of one image per parallel task. Stripes share no work (gaussianBlurRows), so
+// they can be short; 32 rows keep the per-task overhead small against a stripe's
+// work even in the first octave of a small view.
+constexpr int kRowsPerTask = 32;
+
+// Runs step(build, rowBegin, rowEnd) over every build's rows [0, rows(build)) in
+// stripes of kRowsPerTask, all in one parallel loop.
+template <class Rows, class Step>
+void forEachStripe(int builds, Rows rows, Step step) {
+  std::vector<cv::Vec3i> tasks;  // (build, rowBegin, rowEnd)
+  for (int b = 0; b < builds; ++b)
+    for (int r0 = 0, n = rows(b); r0 < n; r0 += kRowsPerTask)
+      tasks.push_back({b, r0, std::min(n, r0 + kRowsPerTask)});
+  cv::parallel_for_(cv::Range(0, int(tasks.size())), [&](const cv::Range& range) {
+    StageTimer timer(kScaleSpace);
+    for (int t = range.start; t < range.end; ++t) step(tasks[t][0], tasks[t][1], tasks[t][2]);
+  });
+}
+
+}  // namespace
+
+void buildScaleSpaces(const std::vector<SliceBuild>& builds, int layers, double sigma,
+                      int octaves, cv::Vec2d targetVariance, bool detectionOnly) {
+  CV_Assert(layers >= 1 && octaves >= 1);
+  const int n = int(builds.size());
+  if (n == 0) return;
+  const int upsample = 1 << -kFirstOctave, up2 = upsample * upsample;
+  const cv::Size viewSize = builds[0].slice->size();
+  const cv::Size baseSize(viewSize.width * upsample, viewSize.height * upsample);
 
   // Base: upsample 2x (kFirstOctave = -1), then blur from the assumed 2 * 0.5 (plus
-  // the interpolation blur every slice is topped up to) to sigma.
-  cv::Mat localBase;
-  cv::Mat& base = scratch ? scratch->base : localBase;
-  const double upsample = std::ldexp(1.0, -kFirstOctave), up2 = upsample * upsample;
-  double blur[2];
-  for (int axis = 0; axis < 2; ++axis) {
-    const double present2 = kInitialSigma * kInitialSigma * up2 + up2 * targetVariance[axis];
-    const double topUp = up2 * std::max(0.0, targetVariance[axis] - variance[axis]);
-    blur[axis] = std::sqrt(std::max(sigma * sigma - present2, 0.01) + topUp);
+  // the interpolation blur every slice is topped up to) to sigma. The blur differs
+  // per slice, by its own interpolation blur.
+  std::vector<GaussianTaps> baseX(n), baseY(n);
+  std::vector<cv::Mat> localBase(n);
+  std::vector<cv::Mat*> base(n);
+  for (int b = 0; b < n; ++b) {
+    const SliceBuild& build = builds[b];
+    CV_Assert(build.slice->type() == CV_32F && build.slice->size() == viewSize);
+    ScaleSpace& space = *build.space;
+    space.octaves = octaves;
+    space.layers = layers;
+    space.gaussians.resize(size_t(octaves) * (layers + 3));
+    space.dogs.resize(size_t(octaves) * (layers + 2));
+    for (int axis = 0; axis < 2; ++axis) {
+      const double present2 = kInitialSigma * kInitialSigma * up2 + up2 * targetVariance[axis];
+      const double topUp = up2 * std::max(0.0, targetVariance[axis] - build.variance[axis]);
+      (axis == 0 ? baseX : baseY)[b] =
+          gaussianTaps(std::sqrt(std::max(sigma * sigma - present2, 0.01) + topUp));
+    }
+    base[b] = build.scratch ? &build.scratch->base : &localBase[b];
+    base[b]->create(baseSize, CV_32F);
+    if (detectionOnly && build.scratch)
+      for (cv::Mat& buffer : build.scratch->transient) buffer.create(baseSize, CV_32F);
   }
-  cv::resize(slice, base, cv::Size(), upsample, upsample, cv::INTER_LINEAR);
-  const cv::Size baseSize = base.size();
-
-  // Layers not kept in a detection-only pyramid live in the scratch buffers.
-  const bool transient = detectionOnly && scratch;
-  if (transient)
-    for (cv::Mat& buffer : scratch->transient) buffer.create(baseSize, CV_32F);
-  auto slot = [&](int i) -> cv::Mat* {
-    if (!transient) return nullptr;
-    if (i == 0) return &scratch->transient[0];
-    if (i == layers + 1) return &scratch->transient[1];
-    if (i == layers + 2) return &scratch->transient[2];
-    return nullptr;
-  };
+  forEachStripe(n, [&](int) { return baseSize.height; },
+                [&](int b, int r0, int r1) { upsample2xRows(*builds[b].slice, *base[b], r0, r1); });
 
   // Incremental blurs: sigma_i^2 = (k^i sigma)^2 - (k^(i-1) sigma)^2.
-  std::vector<double> increment(layers + 3);
+  std::vector<GaussianTaps> increment(layers + 3);
   const double k = std::pow(2.0, 1.0 / layers);
-  increment[0] = sigma;
   for (int i = 1; i < layers + 3; ++i) {
     const double previous = std::pow(k, double(i - 1)) * sigma, total = previous * k;
-    increment[i] = std::sqrt(total * total - previous * previous);
+    increment[i] = gaussianTaps(std::sqrt(total * total - previous * previous));
   }
 
+  // Layers a detection-only pyramid does not keep live in the scratch buffers.
+  auto transientSlot = [&](const SliceBuild& build, int i) -> cv::Mat* {
+    if (!detectionOnly || !build.scratch) return nullptr;
+    if (i == 0) return &build.scratch->transient[0];
+    if (i == layers + 1) return &build.scratch->transient[1];
+    if (i == layers + 2) return &build.scratch->transient[2];
+    return nullptr;
+  };
   for (int o = 0; o < octaves; ++o) {
     const cv::Size size(baseSize.width >> o, baseSize.height >> o);
     for (int i = 0; i < layers + 3; ++i) {
-      cv::Mat& dst = space.gaussians[size_t(o) * (layers + 3) + i];
-      if (const cv::Mat* buffer = slot(i)) dst = imageIn(*buffer, size);
-      if (o == 0 && i == 0) {
-        gaussianBlur(base, dst, blur[0], blur[1], rowParallel);
-      } else if (i == 0) {
-        // Layer `layers` of the previous octave has twice the base sigma: decimate it.
-        const cv::Mat& src = space.gaussian(o - 1, layers);
-        cv::resize(src, dst, cv::Size(src.cols / 2, src.rows / 2), 0, 0, cv::INTER_NEAREST);
-      } else {
-        gaussianBlur(space.gaussian(o, i - 1), dst, increment[i], increment[i], rowParallel);
+      // Allocate this step's images, then fill them in one parallel loop.
+      for (const SliceBuild& build : builds) {
+        ScaleSpace& space = *build.space;
+        cv::Mat& dst = space.gaussians[size_t(o) * (layers + 3) + i];
+        if (const cv::Mat* buffer = transientSlot(build, i))
+          dst = imageIn(*buffer, size);
+        else
+          dst.create(size, CV_32F);
+        if (i > 0) space.dogs[size_t(o) * (layers + 2) + i - 1].create(size, CV_32F);
       }
+      forEachStripe(n, [&](int) { return size.height; }, [&](int b, int r0, int r1) {
+        ScaleSpace& space = *builds[b].space;
+        cv::Mat& dst = space.gaussians[size_t(o) * (layers + 3) + i];
+        if (o == 0 && i == 0) {
+          gaussianBlurRows(*base[b], dst, baseX[b], baseY[b], r0, r1);
+        } else if (i == 0) {
+          // Layer `layers` of the previous octave has twice the base sigma: decimate it
+          // (even rows and columns, as cv::resize INTER_NEAREST by 1/2).
+          const cv::Mat& src = space.gaussian(o - 1, layers);
+          for (int y = r0; y < r1; ++y) {
+            const float* in = src.ptr<float>(2 * y);
+            float* out = dst.ptr<float>(y);
+            for (int x = 0; x < size.width; ++x) out[x] = in[2 * x];
+          }
+        } else {
+          cv::Mat& dog = space.dogs[size_t(o) * (layers + 2) + i - 1];
+          gaussianBlurRows(space.gaussian(o, i - 1), dst, increment[i], increment[i], r0, r1,
+                           &dog);
+        }
+      });
     }
-    for (int i = 0; i < layers + 2; ++i)
-      cv::subtract(space.gaussian(o, i + 1), space.gaussian(o, i),
-                   space.dogs[size_t(o) * (layers + 2) + i]);
     if (detectionOnly)  // keypoints sit in layers [1, layers]; the next octave needs `layers`
-      for (int i : {0, layers + 1, layers + 2})
-        space.gaussians[size_t(o) * (layers + 3) + i].release();
+      for (const SliceBuild& build : builds)
+        for (int i : {0, layers + 1, layers + 2})
+          build.space->gaussians[size_t(o) * (layers + 3) + i].release();
   }
+}
+
+void buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
+                     cv::Vec2d variance, cv::Vec2d targetVariance, bool detectionOnly,
+                     ScaleSpace& space, BuildScratch* scratch) {
+  buildScaleSpaces({SliceBuild{&slice, variance, &space, scratch}}, layers, sigma, octaves,
+                   targetVariance, detectionOnly);
 }
 
 std::shared_ptr<ScaleSpace> ScaleSpacePool::takeSpace() {

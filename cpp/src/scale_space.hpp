@@ -41,29 +41,44 @@ struct BuildScratch {
   cv::Mat transient[3];
 };
 
-/// Builds the pyramid of a CV_32F slice into `space`, reusing the memory of the
-/// images it already holds when their sizes match (a pyramid of an earlier slice of
-/// the same light field): base = upsample 2x (bilinear) and blur to sigma; each octave
-/// blurs incrementally,
+/// One slice's part in buildScaleSpaces: its focal slice (CV_32F), the blur the
+/// focal stack's interpolation left in it (`variance`, per axis, view pixels^2; 0 for
+/// a single view), the pyramid to fill (its images' memory is reused when their sizes
+/// match: a pyramid of an earlier slice of the same light field) and, optionally,
+/// scratch memory for the images a detection-only pyramid does not keep.
+struct SliceBuild {
+  const cv::Mat* slice;
+  cv::Vec2d variance;
+  ScaleSpace* space;
+  BuildScratch* scratch = nullptr;
+};
+
+/// Builds the pyramids of several slices together, as cv::SIFT builds one:
+/// base = upsample 2x (bilinear) and blur to sigma; each octave blurs incrementally,
 ///   sigma_i^2 = (k^i sigma)^2 - (k^(i-1) sigma)^2,  k = 2^(1 / layers),
-/// and starts from layer `layers` of the previous octave decimated 2x.
+/// starts from layer `layers` of the previous octave decimated 2x, and
+/// DoG_i = G_(i+1) - G_i (made by the blur that makes G_(i+1)).
 ///
-/// `variance` is the blur the focal stack's interpolation left in this slice and
-/// `targetVariance` the largest over all slices (per axis, view pixels^2; both 0 for
-/// a single view). The base blur tops the slice up to the target, so every slice
-/// carries the same blur, and counts the target as blur already present:
+/// `targetVariance` is the largest interpolation blur over all slices: the base blur
+/// tops each slice up to it, so every slice carries the same blur, and counts it as
+/// blur already present:
 ///   base^2 = max(sigma^2 - (2 * 0.5)^2 - 4 * target, 0.01) + 4 * (target - variance).
 ///
 /// With `detectionOnly`, the Gaussians no detected keypoint can use (layers 0,
-/// layers + 1 and layers + 2 of each octave) are not kept: they are made in
-/// `scratch` (or allocated, without it) and dropped once the DoGs are made.
+/// layers + 1 and layers + 2 of each octave) are not kept: they are made in the
+/// slice's scratch (or allocated, without one) and dropped once the DoGs are made.
 ///
-/// `rowParallel`: split each blur into row stripes run in parallel (for a slice built
-/// alone); false when slices are already built one per thread, where the stripes'
-/// extra rows would be wasted work. The result is the same either way.
+/// The slices advance in step: each image of the pyramid is one parallel loop over
+/// every slice's row stripes, so all threads have work whatever the number of slices
+/// (one slice alone included). Each row is computed the same way whatever the split,
+/// so the result does not depend on the number of threads or of slices built at once.
+void buildScaleSpaces(const std::vector<SliceBuild>& builds, int layers, double sigma,
+                      int octaves, cv::Vec2d targetVariance, bool detectionOnly);
+
+/// buildScaleSpaces for one slice.
 void buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
                      cv::Vec2d variance, cv::Vec2d targetVariance, bool detectionOnly,
-                     bool rowParallel, ScaleSpace& space, BuildScratch* scratch = nullptr);
+                     ScaleSpace& space, BuildScratch* scratch = nullptr);
 
 /// Pyramids and build scratch handed back by finished slices, for the next ones of
 /// the same detection pass: the pass then allocates, and the kernel zero-fills, its

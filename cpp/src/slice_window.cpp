@@ -41,35 +41,29 @@ void SliceWindow::releaseBelow(int k) {
 void SliceWindow::releaseAll() { releaseBelow(plan_.size()); }
 
 void SliceWindow::build(const std::vector<int>& which) {
-  const int n = int(which.size());
   source_.prepare(which);
-  std::vector<cv::Mat> slices;
-  for (int k : which) slices.push_back(source_.take(k));
-  auto buildOne = [&](int j, bool rowParallel) {
-    StageTimer timer(kScaleSpace);
-    std::unique_ptr<BuildScratch> scratch = pool_.takeScratch();
-    std::shared_ptr<ScaleSpace> space = pool_.takeSpace();
-    const cv::Vec2d variance = interpolationVariance(lf_.T, lf_.S, plan_.slopes[which[j]]);
-    buildScaleSpace(slices[j], settings_.layers, settings_.sigma, settings_.octaves, variance,
-                    plan_.blurTarget, settings_.detectionOnly, rowParallel, *space, scratch.get());
-    slices[j].release();
-    pool_.giveScratch(std::move(scratch));
-    return space;
-  };
-  // Whole rounds of one slice per thread run in parallel (each slice serial inside);
-  // the remainder is built one slice at a time with the parallelism inside it
-  // (row-parallel blurs), so no thread idles.
-  const int threads = std::max(1, std::min(cv::getNumThreads(), batch_));
-  const int parallelCount = threads > 1 ? n - n % threads : 0;
-  std::vector<std::shared_ptr<ScaleSpace>> built(n);
-  cv::parallel_for_(
-      cv::Range(0, parallelCount),
-      [&](const cv::Range& range) {
-        for (int j = range.start; j < range.end; ++j) built[j] = buildOne(j, false);
-      },
-      threads);  // `threads` stripes: no more than that many built at once
-  for (int j = parallelCount; j < n; ++j) built[j] = buildOne(j, true);
-  for (int j = 0; j < n; ++j) spaces_[which[j]] = built[j];
+  // Groups of at most `batch` slices (the memory estimate's count of slices being
+  // built at once) advance in step, each step parallel over their row stripes.
+  for (size_t first = 0; first < which.size(); first += batch_) {
+    const size_t last = std::min(which.size(), first + size_t(batch_));
+    std::vector<cv::Mat> slices;
+    std::vector<std::unique_ptr<BuildScratch>> scratch;
+    std::vector<std::shared_ptr<ScaleSpace>> built;
+    std::vector<SliceBuild> builds;
+    for (size_t j = first; j < last; ++j) {
+      slices.push_back(source_.take(which[j]));
+      scratch.push_back(pool_.takeScratch());
+      built.push_back(pool_.takeSpace());
+    }
+    for (size_t j = first; j < last; ++j)
+      builds.push_back({&slices[j - first],
+                        interpolationVariance(lf_.T, lf_.S, plan_.slopes[which[j]]),
+                        built[j - first].get(), scratch[j - first].get()});
+    buildScaleSpaces(builds, settings_.layers, settings_.sigma, settings_.octaves,
+                     plan_.blurTarget, settings_.detectionOnly);
+    for (size_t j = first; j < last; ++j) spaces_[which[j]] = built[j - first];
+    for (std::unique_ptr<BuildScratch>& s : scratch) pool_.giveScratch(std::move(s));
+  }
 }
 
 }  // namespace detail

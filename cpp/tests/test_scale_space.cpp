@@ -5,6 +5,10 @@
 
 #include <gtest/gtest.h>
 
+#include <opencv2/imgproc.hpp>
+
+#include "blur.hpp"
+
 namespace {
 
 using liff::detail::buildScaleSpace;
@@ -37,7 +41,7 @@ ScaleSpace build(cv::Size view, int layers, bool detectionOnly) {
   cv::randu(slice, 0.f, 1.f);
   ScaleSpace space;
   buildScaleSpace(slice, layers, 1.6, numOctaves(view), cv::Vec2d(0, 0), cv::Vec2d(0, 0),
-                  detectionOnly, false, space);
+                  detectionOnly, space);
   return space;
 }
 
@@ -74,6 +78,51 @@ TEST(ScaleSpaceSize, DetectionOnlyPyramidKeepsTheGaussiansKeypointsCanUse) {
     for (int i = 0; i < layers + 3; ++i)
       EXPECT_EQ(space.gaussian(o, i).empty(), i == 0 || i > layers) << o << ", " << i;
     for (int i = 0; i < layers + 2; ++i) EXPECT_FALSE(space.dog(o, i).empty()) << o << ", " << i;
+  }
+}
+
+
+// The scale space's own blur (blur.hpp) is cv::GaussianBlur's up to float rounding:
+// the same taps, the same reflected borders, on every size down to 1 x 1 (kernels
+// wider than the image reflect more than once).
+TEST(ScaleSpaceBlur, MatchesOpenCvsGaussianBlurOnEverySize) {
+  cv::RNG rng(7);
+  for (cv::Size size : {cv::Size(1, 1), cv::Size(3, 2), cv::Size(5, 17), cv::Size(40, 31),
+                        cv::Size(97, 64), cv::Size(8, 100)})
+    for (double sigma : {0.7, 1.6, 3.1}) {
+      SCOPED_TRACE(testing::Message() << size.width << " x " << size.height << ", sigma " << sigma);
+      cv::Mat src(size, CV_32F), ours(size, CV_32F), expected;
+      rng.fill(src, cv::RNG::UNIFORM, 0.f, 1.f);
+      const liff::detail::GaussianTaps taps = liff::detail::gaussianTaps(sigma);
+      liff::detail::gaussianBlurRows(src, ours, taps, taps, 0, size.height);
+      cv::GaussianBlur(src, expected, cv::Size(), sigma, sigma);
+      EXPECT_LE(cv::norm(ours, expected, cv::NORM_INF), 2e-6);
+    }
+}
+
+// Any split into row stripes gives the same image bit for bit (stripes share no work),
+// and the fused DoG is exactly the difference of the two Gaussians.
+TEST(ScaleSpaceBlur, StripesGiveTheSameResultAndTheDogIsTheExactDifference) {
+  cv::Mat src(53, 71, CV_32F), whole(src.size(), CV_32F), striped(src.size(), CV_32F),
+      dog(src.size(), CV_32F);
+  cv::randu(src, 0.f, 1.f);
+  const liff::detail::GaussianTaps kx = liff::detail::gaussianTaps(1.3),
+                                   ky = liff::detail::gaussianTaps(2.2);
+  liff::detail::gaussianBlurRows(src, whole, kx, ky, 0, src.rows);
+  for (int r0 = 0, step = 1; r0 < src.rows; r0 += step, step = step % 5 + 1)
+    liff::detail::gaussianBlurRows(src, striped, kx, ky, r0, std::min(src.rows, r0 + step), &dog);
+  EXPECT_EQ(cv::norm(whole, striped, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(dog, cv::Mat(whole - src), cv::NORM_INF), 0);
+}
+
+// The 2x upsample of the first octave is cv::resize(INTER_LINEAR)'s.
+TEST(ScaleSpaceBlur, UpsampleMatchesOpenCvsBilinearResize) {
+  for (cv::Size size : {cv::Size(1, 1), cv::Size(2, 3), cv::Size(37, 20)}) {
+    cv::Mat src(size, CV_32F), ours(size * 2, CV_32F), expected;
+    cv::randu(src, 0.f, 1.f);
+    liff::detail::upsample2xRows(src, ours, 0, ours.rows);
+    cv::resize(src, expected, cv::Size(), 2, 2, cv::INTER_LINEAR);
+    EXPECT_LE(cv::norm(ours, expected, cv::NORM_INF), 1e-6) << size.width << " x " << size.height;
   }
 }
 

@@ -1,0 +1,225 @@
+#include "blur.hpp"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cstring>
+
+#include "hot_loop.hpp"
+
+namespace liff {
+namespace detail {
+
+GaussianTaps gaussianTaps(double sigma) {
+  CV_Assert(sigma > 0);
+  const int size = cvRound(sigma * 4 * 2 + 1) | 1;  // cv::GaussianBlur's for float images
+  const cv::Mat kernel = cv::getGaussianKernel(size, sigma, CV_32F);
+  const int radius = size / 2;
+  GaussianTaps half;
+  half.taps.assign(kernel.ptr<float>() + radius, kernel.ptr<float>() + size);
+  return half;
+}
+
+namespace {
+
+// Floats per vector and vectors per step of the inner loops: 4 independent
+// accumulators hide the latency of the adds (one dependency chain per vector).
+constexpr int kLanes = 8;
+constexpr int kVectors = 4;
+
+#if defined(__GNUC__) || defined(__clang__)
+// The helpers below are inlined; GCC's note that passing an AVX vector by value
+// changes the ABI without AVX enabled concerns calls across files, which never happen.
+#pragma GCC diagnostic ignored "-Wpsabi"
+// A generic 8-float vector: one AVX register in the AVX2 build, two SSE registers in
+// the baseline one. Loads and stores are unaligned (memcpy compiles to one move).
+typedef float Vec8 __attribute__((vector_size(kLanes * sizeof(float))));
+inline Vec8 load(const float* p) {
+  Vec8 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store(float* p, Vec8 v) { std::memcpy(p, &v, sizeof v); }
+#define LIFF_BLUR_VECTORS 1
+#endif
+
+}  // namespace
+
+// out[x] = k_0 c(x) + sum_{i=1..r} k_i (a_i(x) + b_i(x)), for x in [0, width), where
+// c = rows[r], a_i = rows[r - i], b_i = rows[r + i] (for the horizontal pass, rows
+// are one padded row at offsets -r..r). Every x adds in the same order, in the vector
+// body and the scalar tail alike, and without fused multiply-adds, so a result does
+// not depend on where a pixel falls, on the split into stripes, or on the CPU.
+LIFF_FMA_LOOP void symmetricTaps(const float* const* rows, const float* taps, int radius,
+                                 int width, float* out) {
+  int x = 0;
+  const float* centre = rows[radius];
+#ifdef LIFF_BLUR_VECTORS
+  const float k0 = taps[0];  // a scalar operand broadcasts (one vbroadcastss)
+  for (; x + kLanes * kVectors <= width; x += kLanes * kVectors) {
+    Vec8 acc[kVectors];
+    for (int v = 0; v < kVectors; ++v) acc[v] = k0 * load(centre + x + v * kLanes);
+    for (int i = 1; i <= radius; ++i) {
+      const float k = taps[i];
+      const float* a = rows[radius - i] + x;
+      const float* b = rows[radius + i] + x;
+      for (int v = 0; v < kVectors; ++v)
+        acc[v] += k * (load(a + v * kLanes) + load(b + v * kLanes));
+    }
+    for (int v = 0; v < kVectors; ++v) store(out + x + v * kLanes, acc[v]);
+  }
+  for (; x + kLanes <= width; x += kLanes) {
+    Vec8 acc = k0 * load(centre + x);
+    for (int i = 1; i <= radius; ++i)
+      acc += taps[i] * (load(rows[radius - i] + x) + load(rows[radius + i] + x));
+    store(out + x, acc);
+  }
+#endif
+  for (; x < width; ++x) {
+    float acc = taps[0] * centre[x];
+    for (int i = 1; i <= radius; ++i) acc += taps[i] * (rows[radius - i][x] + rows[radius + i][x]);
+    out[x] = acc;
+  }
+}
+
+// symmetricTaps for two consecutive output rows at once, rows[0 .. 2r + 1] being
+// source rows y - r .. y + 1 + r: out0 is row y (centre rows[r]), out1 row y + 1
+// (centre rows[r + 1]). Each source row is loaded once for both outputs, which
+// halves the loads of the vertical pass (its bound); the arithmetic of each output
+// is symmetricTaps's, in the same order, so the result is the same bit for bit.
+LIFF_FMA_LOOP void symmetricTapsTwoRows(const float* const* rows, const float* taps, int radius,
+                                        int width, float* out0, float* out1) {
+  int x = 0;
+  const float k0 = taps[0];
+#ifdef LIFF_BLUR_VECTORS
+  constexpr int kPair = 2;  // vectors per step: 2 x 2 accumulators and 2 x 2 carried rows
+  for (; x + kLanes * kPair <= width; x += kLanes * kPair) {
+    Vec8 acc0[kPair], acc1[kPair], low[kPair], high[kPair];
+    for (int v = 0; v < kPair; ++v) {
+      low[v] = load(rows[radius] + x + v * kLanes);       // row y: y+1's pair at i = 1
+      high[v] = load(rows[radius + 1] + x + v * kLanes);  // row y+1: y's pair at i = 1
+      acc0[v] = k0 * low[v];
+      acc1[v] = k0 * high[v];
+    }
+    for (int i = 1; i <= radius; ++i) {
+      const float k = taps[i];
+      const float* above = rows[radius - i] + x;     // y - i
+      const float* below = rows[radius + 1 + i] + x;  // y + 1 + i
+      for (int v = 0; v < kPair; ++v) {
+        const Vec8 a = load(above + v * kLanes), b = load(below + v * kLanes);
+        acc0[v] += k * (a + high[v]);  // rows y - i and y + i
+        acc1[v] += k * (low[v] + b);   // rows y + 1 - i and y + 1 + i
+        low[v] = a;
+        high[v] = b;
+      }
+    }
+    for (int v = 0; v < kPair; ++v) {
+      store(out0 + x + v * kLanes, acc0[v]);
+      store(out1 + x + v * kLanes, acc1[v]);
+    }
+  }
+#endif
+  for (; x < width; ++x) {
+    float acc0 = k0 * rows[radius][x], acc1 = k0 * rows[radius + 1][x];
+    for (int i = 1; i <= radius; ++i) {
+      acc0 += taps[i] * (rows[radius - i][x] + rows[radius + i][x]);
+      acc1 += taps[i] * (rows[radius + 1 - i][x] + rows[radius + 1 + i][x]);
+    }
+    out0[x] = acc0;
+    out1[x] = acc1;
+  }
+}
+
+// dog[x] = now[x] - before[x].
+LIFF_HOT_LOOP void difference(const float* now, const float* before, int width, float* dog) {
+  for (int x = 0; x < width; ++x) dog[x] = now[x] - before[x];
+}
+
+void gaussianBlurRows(const cv::Mat& src, cv::Mat& dst, const GaussianTaps& kx,
+                      const GaussianTaps& ky, int rowBegin, int rowEnd, cv::Mat* dog) {
+  CV_Assert(src.type() == CV_32F && dst.type() == CV_32F && dst.size() == src.size());
+  CV_Assert(src.data != dst.data);
+  const int width = src.cols, height = src.rows, rx = kx.radius(), ry = ky.radius();
+  // Two rows, each padded by rx reflected samples either side, per thread: reused by
+  // every call, so a blur allocates nothing.
+  const size_t stride = size_t(width) + 2 * rx;
+  thread_local std::vector<float> padded;
+  thread_local std::vector<const float*> rows, shifted;
+  padded.resize(2 * stride);
+  rows.resize(2 * ry + 2);
+  shifted.resize(2 * rx + 1);
+  float* middle[2] = {padded.data() + rx, padded.data() + stride + rx};
+  // The horizontal pass of one vertically blurred row (middle[m]) into output row y.
+  auto horizontal = [&](int m, int y) {
+    for (int j = 1; j <= rx; ++j) {
+      middle[m][-j] = middle[m][cv::borderInterpolate(-j, width, cv::BORDER_REFLECT_101)];
+      middle[m][width - 1 + j] =
+          middle[m][cv::borderInterpolate(width - 1 + j, width, cv::BORDER_REFLECT_101)];
+    }
+    for (int j = -rx; j <= rx; ++j) shifted[j + rx] = middle[m] + j;
+    float* out = dst.ptr<float>(y);
+    symmetricTaps(shifted.data(), kx.taps.data(), rx, width, out);
+    if (dog) difference(out, src.ptr<float>(y), width, dog->ptr<float>(y));
+  };
+  for (int y = rowBegin; y < rowEnd;) {
+    const int count = std::min(2, rowEnd - y);
+    for (int i = -ry; i <= ry + count - 1; ++i)
+      rows[i + ry] = src.ptr<float>(cv::borderInterpolate(y + i, height, cv::BORDER_REFLECT_101));
+    if (count == 2)
+      symmetricTapsTwoRows(rows.data(), ky.taps.data(), ry, width, middle[0], middle[1]);
+    else
+      symmetricTaps(rows.data(), ky.taps.data(), ry, width, middle[0]);
+    for (int m = 0; m < count; ++m) horizontal(m, y + m);
+    y += count;
+  }
+}
+
+namespace {
+
+// One input row upsampled 2x along x (cv::resize's INTER_LINEAR weights, 1/4 and 3/4).
+void upsampleLine(const float* in, int width, float* out) {
+  out[0] = in[0];
+  for (int j = 1; j < width; ++j) {
+    out[2 * j - 1] = 0.75f * in[j - 1] + 0.25f * in[j];
+    out[2 * j] = 0.25f * in[j - 1] + 0.75f * in[j];
+  }
+  out[2 * width - 1] = in[width - 1];
+}
+
+}  // namespace
+
+// a[x] * wa + b[x] * wb: the vertical weights of the upsample.
+LIFF_HOT_LOOP void blendLines(const float* a, float wa, const float* b, float wb, int width,
+                              float* out) {
+  for (int x = 0; x < width; ++x) out[x] = a[x] * wa + b[x] * wb;
+}
+
+void upsample2xRows(const cv::Mat& src, cv::Mat& dst, int rowBegin, int rowEnd) {
+  CV_Assert(src.type() == CV_32F && dst.type() == CV_32F);
+  CV_Assert(dst.rows == 2 * src.rows && dst.cols == 2 * src.cols);
+  const int width = src.cols, height = src.rows, outWidth = dst.cols;
+  thread_local std::vector<float> lines;
+  lines.resize(2 * size_t(outWidth));
+  float* upper = lines.data();
+  float* lower = upper + outWidth;
+  for (int y = rowBegin; y < rowEnd; ++y) {
+    // Output row y samples input row y / 2 - 1/4: rows j - 1 and j for y = 2j
+    // (weights 1/4, 3/4), j and j + 1 for y = 2j + 1 (3/4, 1/4), clamped at the ends.
+    const int j = y / 2;
+    const int other = y % 2 == 0 ? j - 1 : j + 1;
+    float* out = dst.ptr<float>(y);
+    if (other < 0 || other >= height) {
+      upsampleLine(src.ptr<float>(j), width, out);
+      continue;
+    }
+    upsampleLine(src.ptr<float>(std::min(j, other)), width, upper);
+    upsampleLine(src.ptr<float>(std::max(j, other)), width, lower);
+    if (y % 2 == 0)
+      blendLines(upper, 0.25f, lower, 0.75f, outWidth, out);
+    else
+      blendLines(upper, 0.75f, lower, 0.25f, outWidth, out);
+  }
+}
+
+}  // namespace detail
+}  // namespace liff

@@ -12,10 +12,12 @@ from lfhelpers import assert_same_keypoints, kp_fields
 DEFAULTS = dict(
     nfeatures=0, nOctaveLayers=3, contrastThreshold=0.04, edgeThreshold=10.0, sigma=1.6,
     firstSlope=-math.inf, lastSlope=math.inf, numSlopes=0, descriptorType=cv2.CV_32F, rootSift=False,
+    firstOctave=-1,
 )
 CUSTOM = dict(
     nfeatures=17, nOctaveLayers=4, contrastThreshold=0.031, edgeThreshold=7.5, sigma=1.3,
     firstSlope=-0.75, lastSlope=1.25, numSlopes=9, descriptorType=cv2.CV_8U, rootSift=True,
+    firstOctave=0,
 )
 
 
@@ -24,6 +26,7 @@ ACCESSOR = dict(
     nfeatures="NFeatures", nOctaveLayers="NOctaveLayers", contrastThreshold="ContrastThreshold",
     edgeThreshold="EdgeThreshold", sigma="Sigma", firstSlope="FirstSlope", lastSlope="LastSlope",
     numSlopes="NumSlopes", descriptorType="DescriptorType", rootSift="RootSift",
+    firstOctave="FirstOctave",
 )
 
 
@@ -283,7 +286,7 @@ def test_create_rejects_unknown_and_repeated_arguments():
         liff.LiFF.create(contrastTreshold=0.02)
     with pytest.raises(TypeError, match="multiple values"):
         liff.LiFF.create(0, nfeatures=3)
-    with pytest.raises(TypeError, match="at most 10"):
+    with pytest.raises(TypeError, match="at most 11"):
         liff.LiFF.create(*CUSTOM.values(), 1)
     with pytest.raises(TypeError, match="unexpected keyword"):
         liff._core.LiFF(foo=1)

@@ -302,7 +302,7 @@ def test_every_detector_parameter_is_an_option(disk_npz, tmp_path):
     assert defaults == {p.name: p.default for p in liff.PARAMETERS}
     given = {"nfeatures": 5, "nOctaveLayers": 4, "contrastThreshold": 0.03, "edgeThreshold": 8.0,
              "sigma": 1.5, "firstSlope": -1.5, "lastSlope": 1.5, "numSlopes": 7,
-             "descriptorType": cv2.CV_8U, "rootSift": True}
+             "descriptorType": cv2.CV_8U, "rootSift": True, "firstOctave": 0}
     assert set(given) == set(defaults)
     argv = []
     for name, value in given.items():

@@ -181,3 +181,23 @@ def test_a_light_field_allocated_view_by_view_gives_the_same_features():
             np.testing.assert_array_equal(by_view[1], one_buffer[1])
     finally:
         _core._set_view_by_view_allocation(previous)
+
+
+def test_first_octave_zero_finds_the_same_disks_without_the_smallest_scales():
+    """firstOctave=0 (the authors' toolbox) skips the 2x upsampled octave: the paper's
+    disks of radius 3 px and more are still found at their slopes, the two smallest
+    (2.5 and 2.8 px, whose best scale lies below the views' own first octave) are
+    lost, and no keypoint is smaller than that octave allows (diameter 2 sigma)."""
+    shape = (7, 7, 128, 128)
+    disks = synthetic.paper_disks(n=12, shape=shape, seed=0)
+    lf = synthetic.render_disks(disks, shape)
+    kps = liff.LiFF.create(firstOctave=0).detect(lf)
+    found, err, offset = match_blobs(kps, disks, tol=1.0)
+    radius = np.array([d.radius for d in disks])
+    # Observed: the 10 disks of radius >= 3 px found, the two smaller ones missed.
+    assert found[radius >= 3].all()
+    assert np.median(np.abs(err[found])) < 0.02
+    assert min(k.size for k in kps) >= 2 * 1.6 - 1e-4
+    assert {k.octave & 255 for k in kps} <= set(range(0, 8))  # octave -1 (255) never
+    upsampled, *_ = match_blobs(liff.LiFF.create().detect(lf), disks, tol=1.0)
+    assert upsampled[radius < 3].all()  # the default's octave -1 finds them

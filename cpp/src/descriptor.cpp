@@ -250,10 +250,11 @@ void finishDescriptor(float* raw, bool rootSift, cv::Mat row) {
 void describeKeypoint(const ScaleSpace& space, const cv::KeyPoint& kp, bool rootSift,
                       cv::Mat row) {
   int o = 0, layer = 0;
-  CV_Assert(unpackOctave(kp, space.octaves, space.layers, o, layer));
-  const cv::Point2f pt(viewToOctave(kp.pt.x, o), viewToOctave(kp.pt.y, o));
+  CV_Assert(unpackOctave(kp, space.octaves, space.layers, space.firstOctave, o, layer));
+  const cv::Point2f pt(viewToOctave(kp.pt.x, o, space.firstOctave),
+                       viewToOctave(kp.pt.y, o, space.firstOctave));
   // Scale in octave pixels: size is a diameter in view pixels.
-  const float scale = kp.size * 0.5f / std::ldexp(1.f, o + kFirstOctave);
+  const float scale = kp.size * 0.5f / std::ldexp(1.f, o + space.firstOctave);
   // Descriptor rotation, reduced to [0, 360) whatever angle the keypoint carries
   // (cv2.KeyPoint's default is -1).
   float angle = std::fmod(360.f - kp.angle, 360.f);

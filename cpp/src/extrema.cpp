@@ -176,11 +176,12 @@ float subSlopeOffset(const SliceNeighbourhood& slices, int o, const Refined& e) 
   return std::min(0.5f, std::max(-0.5f, 0.5f * (dm - dp) / curvature));
 }
 
-bool unpackOctave(const cv::KeyPoint& keypoint, int octaves, int layers, int& o, int& layer) {
+bool unpackOctave(const cv::KeyPoint& keypoint, int octaves, int layers, int firstOctave, int& o,
+                  int& layer) {
   int packed = keypoint.octave & 255;
   packed = packed < 128 ? packed : (-128 | packed);  // sign-extend the low byte
   layer = (keypoint.octave >> 8) & 255;
-  o = packed - kFirstOctave;
+  o = packed - firstOctave;
   return o >= 0 && o < octaves && layer >= 0 && layer <= layers + 2;
 }
 
@@ -218,18 +219,19 @@ std::vector<cv::KeyPoint> findKeypoints(const SliceNeighbourhood& slices,
     if (!refine(space, o, params, r, c, i, e)) return;
 
     cv::KeyPoint kp;
-    kp.pt = cv::Point2f(octaveToView(e.c + e.xc, o), octaveToView(e.r + e.xr, o));
+    const int first = space.firstOctave;
+    kp.pt = cv::Point2f(octaveToView(e.c + e.xc, o, first), octaveToView(e.r + e.xr, o, first));
     if (!mask.empty()) {
       const int mx = cvRound(kp.pt.x), my = cvRound(kp.pt.y);
       if (mx < 0 || my < 0 || mx >= mask.cols || my >= mask.rows ||
           mask.at<uchar>(my, mx) == 0)
         return;
     }
-    kp.octave = ((o + kFirstOctave) & 255) + (e.layer << 8) +
+    kp.octave = ((o + first) & 255) + (e.layer << 8) +
                 (cvRound((e.xi + 0.5) * 255) << 16);
     // Diameter: 2 sigma in view pixels.
     const float octaveSigma = float(params.sigma * std::pow(2.0, (e.layer + e.xi) / layers));
-    kp.size = octaveSigma * std::ldexp(1.f, o + kFirstOctave) * 2.f;
+    kp.size = octaveSigma * std::ldexp(1.f, o + first) * 2.f;
     kp.response = std::abs(e.contrast);
     const double slope = slices.slope + subSlopeOffset(slices, o, e) * slices.slopeStep;
     kp.class_id = slopeToClassId(slope);

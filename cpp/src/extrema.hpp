@@ -119,7 +119,8 @@ float subSlopeOffset(const SliceNeighbourhood& slices, int o, const Refined& e);
 
 /// Unpacks cv::SIFT's keypoint octave field into (octave index o >= 0 of our
 /// pyramid, layer). Returns false if it names an octave or layer the pyramid lacks.
-bool unpackOctave(const cv::KeyPoint& keypoint, int octaves, int layers, int& o, int& layer);
+bool unpackOctave(const cv::KeyPoint& keypoint, int octaves, int layers, int firstOctave, int& o,
+                  int& layer);
 
 }  // namespace detail
 }  // namespace liff

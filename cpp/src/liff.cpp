@@ -218,8 +218,9 @@ void LiFF_Impl::remember(const SlopePlan& plan) {
 detail::MemoryEstimate LiFF_Impl::convert(const Parameters& parameters, const cv::Mat& input,
                                           LightField& lf, int& batch) const {
   // Memory check before the grey conversion, the largest single allocation.
+  const int octaves = detail::numOctaves(lf.viewSize(), parameters.firstOctave);
   detail::MemoryEstimate need = detail::sliceMemory(lf.viewSize(), parameters.nOctaveLayers,
-                                                    detail::numOctaves(lf.viewSize()));
+                                                    octaves, parameters.firstOctave);
   need.lightFieldBytes = detail::conversionBytes(input, lf);
   batch = sliceBatch(lf, need, memoryLimitMB_);
   detail::convertLightField(input, lf);
@@ -256,7 +257,8 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
             lf,
             slices,
             detail::ScaleSpaceSettings{parameters.nOctaveLayers, parameters.sigma,
-                                       detail::numOctaves(lf.viewSize()), !useProvidedKeypoints},
+                                       detail::numOctaves(lf.viewSize(), parameters.firstOctave),
+                                       parameters.firstOctave, !useProvidedKeypoints},
             batch,
             need.slicesAhead(batch)};
   if (useProvidedKeypoints) {
@@ -282,7 +284,7 @@ cv::Ptr<LiFF> LiFF::create(const Parameters& parameters) {
 
 cv::Ptr<LiFF> LiFF::create(int nfeatures, int nOctaveLayers, double contrastThreshold,
                            double edgeThreshold, double sigma, double firstSlope, double lastSlope,
-                           int numSlopes, int descriptorType, bool rootSift) {
+                           int numSlopes, int descriptorType, bool rootSift, int firstOctave) {
   Parameters parameters;
   parameters.nfeatures = nfeatures;
   parameters.nOctaveLayers = nOctaveLayers;
@@ -294,6 +296,7 @@ cv::Ptr<LiFF> LiFF::create(int nfeatures, int nOctaveLayers, double contrastThre
   parameters.numSlopes = numSlopes;
   parameters.descriptorType = descriptorType;
   parameters.rootSift = rootSift;
+  parameters.firstOctave = firstOctave;
   return create(parameters);
 }
 

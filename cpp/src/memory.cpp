@@ -72,17 +72,18 @@ double cgroupRoom() {
 namespace {
 
 // Size of the first octave's images: the view upsampled as buildScaleSpace does.
-cv::Size firstOctaveSize(cv::Size viewSize) {
-  const int upsample = 1 << -kFirstOctave;
+cv::Size firstOctaveSize(cv::Size viewSize, int firstOctave) {
+  const int upsample = 1 << -firstOctave;
   return cv::Size(viewSize.width * upsample, viewSize.height * upsample);
 }
 
 }  // namespace
 
-double scaleSpaceBytes(cv::Size viewSize, int layers, int octaves, bool detectionOnly) {
+double scaleSpaceBytes(cv::Size viewSize, int layers, int octaves, int firstOctave,
+                       bool detectionOnly) {
   const int gaussians = detectionOnly ? layers : layers + 3, dogs = layers + 2;
   double pixels = 0;
-  cv::Size size = firstOctaveSize(viewSize);
+  cv::Size size = firstOctaveSize(viewSize, firstOctave);
   for (int o = 0; o < octaves; ++o) {
     pixels += double(size.width) * size.height;
     size = cv::Size(std::max(1, size.width / 2), std::max(1, size.height / 2));
@@ -90,14 +91,14 @@ double scaleSpaceBytes(cv::Size viewSize, int layers, int octaves, bool detectio
   return pixels * (gaussians + dogs) * sizeof(float);
 }
 
-MemoryEstimate sliceMemory(cv::Size viewSize, int layers, int octaves) {
+MemoryEstimate sliceMemory(cv::Size viewSize, int layers, int octaves, int firstOctave) {
   MemoryEstimate need;
   if (octaves < 1) return need;
-  const double full = scaleSpaceBytes(viewSize, layers, octaves, false);
-  need.windowSliceBytes = scaleSpaceBytes(viewSize, layers, octaves, true);
+  const double full = scaleSpaceBytes(viewSize, layers, octaves, firstOctave, false);
+  need.windowSliceBytes = scaleSpaceBytes(viewSize, layers, octaves, firstOctave, true);
   // The rest of a full pyramid (the build scratch) and the upsampled base.
   need.buildBytes =
-      full - need.windowSliceBytes + double(firstOctaveSize(viewSize).area()) * sizeof(float);
+      full - need.windowSliceBytes + double(firstOctaveSize(viewSize, firstOctave).area()) * sizeof(float);
   need.focalSliceBytes = double(viewSize.area()) * sizeof(float);
   need.slicesPerPass = kSlicesPerPass;
   return need;

@@ -10,10 +10,11 @@ namespace liff {
 namespace detail {
 
 /// Bytes of one slice's Gaussian and DoG pyramids (CV_32F, the first octave
-/// upsampled 2^-kFirstOctave times): per octave the images halve; a full pyramid
+/// upsampled 2^-firstOctave times): per octave the images halve; a full pyramid
 /// holds layers + 3 Gaussians and layers + 2 DoGs per octave, a detection-only one
 /// keeps `layers` Gaussians.
-double scaleSpaceBytes(cv::Size viewSize, int layers, int octaves, bool detectionOnly);
+double scaleSpaceBytes(cv::Size viewSize, int layers, int octaves, int firstOctave,
+                       bool detectionOnly);
 
 /// Peak bytes of detectAndCompute beyond the caller's input, for `batch` slices
 /// built at once:
@@ -37,7 +38,7 @@ struct MemoryEstimate {
 
 /// The estimate's per-slice parts for views of `viewSize` (lightFieldBytes left 0):
 /// what buildScaleSpace, the slice pool and the focal slices rendered ahead hold.
-MemoryEstimate sliceMemory(cv::Size viewSize, int layers, int octaves);
+MemoryEstimate sliceMemory(cv::Size viewSize, int layers, int octaves, int firstOctave);
 
 /// Physical memory this process can still use, in bytes: on Linux MemAvailable from
 /// /proc/meminfo, capped by the cgroup (v2 or v1) limit minus current usage; 0 when

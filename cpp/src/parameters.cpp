@@ -73,6 +73,10 @@ void Parameters::check() const {
   require(descriptorType == CV_32F || descriptorType == CV_8U,
           cv::format("descriptorType = %d; expected CV_32F (%d) or CV_8U (%d)", descriptorType,
                      CV_32F, CV_8U));
+  require(firstOctave == -1 || firstOctave == 0,
+          cv::format("firstOctave = %d; expected -1 (views upsampled 2x first, as cv::SIFT) or 0 "
+                     "(views at their own size)",
+                     firstOctave));
 }
 
 void writeParameters(cv::FileStorage& fs, const Parameters& p) {

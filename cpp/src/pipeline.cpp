@@ -94,7 +94,8 @@ void describeProvidedKeypoints(const Call& call, std::vector<cv::KeyPoint>& keyp
     const bool usable = std::abs(kp.pt.x) < kMaxCoordinate && std::abs(kp.pt.y) < kMaxCoordinate &&
                         kp.size > 0 && kp.size < kMaxCoordinate && std::isfinite(kp.angle);
     if (call.settings.octaves >= 1 && usable &&
-        unpackOctave(kp, call.settings.octaves, call.settings.layers, o, layer))
+        unpackOctave(kp, call.settings.octaves, call.settings.layers, call.settings.firstOctave, o,
+                     layer))
       kept.push_back(kp);
   }
   keypoints = kept;

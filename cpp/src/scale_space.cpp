@@ -8,9 +8,9 @@
 
 namespace liff {
 namespace detail {
-int numOctaves(cv::Size viewSize) {
-  const double baseMin = std::min(viewSize.width, viewSize.height) * std::ldexp(1.0, -kFirstOctave);
-  return std::max(0, cvRound(std::log2(baseMin) - 2) - kFirstOctave);
+int numOctaves(cv::Size viewSize, int firstOctave) {
+  const double baseMin = std::min(viewSize.width, viewSize.height) * std::ldexp(1.0, -firstOctave);
+  return std::max(0, cvRound(std::log2(baseMin) - 2) - firstOctave);
 }
 
 namespace {
@@ -47,15 +47,16 @@ void forEachStripe(int builds, Rows rows, Step step) {
 }  // namespace
 
 void buildScaleSpaces(const std::vector<SliceBuild>& builds, int layers, double sigma,
-                      int octaves, cv::Vec2d targetVariance, bool detectionOnly) {
-  CV_Assert(layers >= 1 && octaves >= 1);
+                      int octaves, int firstOctave, cv::Vec2d targetVariance,
+                      bool detectionOnly) {
+  CV_Assert(layers >= 1 && octaves >= 1 && (firstOctave == -1 || firstOctave == 0));
   const int n = int(builds.size());
   if (n == 0) return;
-  const int upsample = 1 << -kFirstOctave, up2 = upsample * upsample;
+  const int upsample = 1 << -firstOctave, up2 = upsample * upsample;
   const cv::Size viewSize = builds[0].slice->size();
   const cv::Size baseSize(viewSize.width * upsample, viewSize.height * upsample);
 
-  // Base: upsample 2x (kFirstOctave = -1), then blur from the assumed 2 * 0.5 (plus
+  // Base: upsample 2x (firstOctave -1) or the slice itself (0), then blur from the assumed 2 * 0.5 (plus
   // the interpolation blur every slice is topped up to) to sigma. The blur differs
   // per slice, by its own interpolation blur.
   std::vector<GaussianTaps> baseX(n), baseY(n);
@@ -67,6 +68,7 @@ void buildScaleSpaces(const std::vector<SliceBuild>& builds, int layers, double 
     ScaleSpace& space = *build.space;
     space.octaves = octaves;
     space.layers = layers;
+    space.firstOctave = firstOctave;
     space.gaussians.resize(size_t(octaves) * (layers + 3));
     space.dogs.resize(size_t(octaves) * (layers + 2));
     for (int axis = 0; axis < 2; ++axis) {
@@ -75,13 +77,19 @@ void buildScaleSpaces(const std::vector<SliceBuild>& builds, int layers, double 
       (axis == 0 ? baseX : baseY)[b] =
           gaussianTaps(std::sqrt(std::max(sigma * sigma - present2, 0.01) + topUp));
     }
-    base[b] = build.scratch ? &build.scratch->base : &localBase[b];
-    base[b]->create(baseSize, CV_32F);
+    if (upsample == 1) {
+      base[b] = const_cast<cv::Mat*>(build.slice);  // read only: the blur's source
+    } else {
+      base[b] = build.scratch ? &build.scratch->base : &localBase[b];
+      base[b]->create(baseSize, CV_32F);
+    }
     if (detectionOnly && build.scratch)
       for (cv::Mat& buffer : build.scratch->transient) buffer.create(baseSize, CV_32F);
   }
-  forEachStripe(n, [&](int) { return baseSize.height; },
-                [&](int b, int r0, int r1) { upsample2xRows(*builds[b].slice, *base[b], r0, r1); });
+  if (upsample == 2)
+    forEachStripe(n, [&](int) { return baseSize.height; }, [&](int b, int r0, int r1) {
+      upsample2xRows(*builds[b].slice, *base[b], r0, r1);
+    });
 
   // Incremental blurs: sigma_i^2 = (k^i sigma)^2 - (k^(i-1) sigma)^2.
   std::vector<GaussianTaps> increment(layers + 3);
@@ -142,9 +150,9 @@ void buildScaleSpaces(const std::vector<SliceBuild>& builds, int layers, double 
 
 void buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
                      cv::Vec2d variance, cv::Vec2d targetVariance, bool detectionOnly,
-                     ScaleSpace& space, BuildScratch* scratch) {
+                     ScaleSpace& space, BuildScratch* scratch, int firstOctave) {
   buildScaleSpaces({SliceBuild{&slice, variance, &space, scratch}}, layers, sigma, octaves,
-                   targetVariance, detectionOnly);
+                   firstOctave, targetVariance, detectionOnly);
 }
 
 std::shared_ptr<ScaleSpace> ScaleSpacePool::takeSpace() {

@@ -11,14 +11,15 @@
 namespace liff {
 namespace detail {
 
-/// First octave: -1 = the slice is upsampled 2x before the first blur (as cv::SIFT).
-constexpr int kFirstOctave = -1;
+/// SIFT's first octave (the firstOctave parameter's default): -1 = the slice is
+/// upsampled 2x before the first blur (as cv::SIFT); 0 = the slice at its own size.
+constexpr int kDefaultFirstOctave = -1;
 /// Blur assumed already present in the input image (Lowe's 0.5).
 constexpr float kInitialSigma = 0.5f;
 
 /// Number of octaves for a view of `size`, as cv::SIFT: round(log2(min side of the
-/// upsampled base) - 2) - firstOctave.
-int numOctaves(cv::Size viewSize);
+/// base) - 2) - firstOctave, the base being the view scaled by 2^-firstOctave.
+int numOctaves(cv::Size viewSize, int firstOctave = kDefaultFirstOctave);
 
 /// Gaussian and DoG pyramids of one slice. Octave o (0-based) holds images of the
 /// base size / 2^o; gaussian(o, i) for i in [0, layers + 2], dog(o, i) for i in
@@ -26,6 +27,7 @@ int numOctaves(cv::Size viewSize);
 struct ScaleSpace {
   int octaves = 0;
   int layers = 0;  // nOctaveLayers
+  int firstOctave = kDefaultFirstOctave;
   std::vector<cv::Mat> gaussians;
   std::vector<cv::Mat> dogs;
 
@@ -54,7 +56,7 @@ struct SliceBuild {
 };
 
 /// Builds the pyramids of several slices together, as cv::SIFT builds one:
-/// base = upsample 2x (bilinear) and blur to sigma; each octave blurs incrementally,
+/// base = upsample 2x (bilinear; firstOctave -1, else the slice itself) and blur to sigma; each octave blurs incrementally,
 ///   sigma_i^2 = (k^i sigma)^2 - (k^(i-1) sigma)^2,  k = 2^(1 / layers),
 /// starts from layer `layers` of the previous octave decimated 2x, and
 /// DoG_i = G_(i+1) - G_i (made by the blur that makes G_(i+1)).
@@ -62,7 +64,8 @@ struct SliceBuild {
 /// `targetVariance` is the largest interpolation blur over all slices: the base blur
 /// tops each slice up to it, so every slice carries the same blur, and counts it as
 /// blur already present:
-///   base^2 = max(sigma^2 - (2 * 0.5)^2 - 4 * target, 0.01) + 4 * (target - variance).
+///   base^2 = max(sigma^2 - (u * 0.5)^2 - u^2 * target, 0.01) + u^2 * (target - variance),
+/// u = 2^-firstOctave being the upsampling.
 ///
 /// With `detectionOnly`, the Gaussians no detected keypoint can use (layers 0,
 /// layers + 1 and layers + 2 of each octave) are not kept: they are made in the
@@ -73,12 +76,14 @@ struct SliceBuild {
 /// (one slice alone included). Each row is computed the same way whatever the split,
 /// so the result does not depend on the number of threads or of slices built at once.
 void buildScaleSpaces(const std::vector<SliceBuild>& builds, int layers, double sigma,
-                      int octaves, cv::Vec2d targetVariance, bool detectionOnly);
+                      int octaves, int firstOctave, cv::Vec2d targetVariance,
+                      bool detectionOnly);
 
 /// buildScaleSpaces for one slice.
 void buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,
                      cv::Vec2d variance, cv::Vec2d targetVariance, bool detectionOnly,
-                     ScaleSpace& space, BuildScratch* scratch = nullptr);
+                     ScaleSpace& space, BuildScratch* scratch = nullptr,
+                     int firstOctave = kDefaultFirstOctave);
 
 /// Pyramids and build scratch handed back by finished slices, for the next ones of
 /// the same detection pass: the pass then allocates, and the kernel zero-fills, its
@@ -99,18 +104,19 @@ class ScaleSpacePool {
 };
 
 /// Octave-image coordinate -> centre-view pixel coordinate, for octave index o
-/// (0-based). Octave pixel x sits at base pixel x * 2^o (decimation keeps even
-/// pixels); a 2^-f bilinear upsample puts base pixel X at view pixel
-/// X * 2^f + (2^f - 1) / 2 (pixel centres at integers), i.e. X / 2 - 1/4 for f = -1.
-/// cv::SIFT omits the -1/4; we keep it so positions are unbiased.
-inline float octaveToView(float x, int o) {
-  const float f = std::ldexp(1.f, kFirstOctave);
-  return x * std::ldexp(1.f, o + kFirstOctave) + 0.5f * (f - 1.f);
+/// (0-based) of a pyramid whose first octave is `first`. Octave pixel x sits at base
+/// pixel x * 2^o (decimation keeps even pixels); a 2^-f bilinear upsample puts base
+/// pixel X at view pixel X * 2^f + (2^f - 1) / 2 (pixel centres at integers), i.e.
+/// X / 2 - 1/4 for f = -1 and X for f = 0. cv::SIFT omits the -1/4; we keep it so
+/// positions are unbiased.
+inline float octaveToView(float x, int o, int first) {
+  const float f = std::ldexp(1.f, first);
+  return x * std::ldexp(1.f, o + first) + 0.5f * (f - 1.f);
 }
 /// Inverse of octaveToView.
-inline float viewToOctave(float x, int o) {
-  const float f = std::ldexp(1.f, kFirstOctave);
-  return (x - 0.5f * (f - 1.f)) / std::ldexp(1.f, o + kFirstOctave);
+inline float viewToOctave(float x, int o, int first) {
+  const float f = std::ldexp(1.f, first);
+  return (x - 0.5f * (f - 1.f)) / std::ldexp(1.f, o + first);
 }
 
 }  // namespace detail

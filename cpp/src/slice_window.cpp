@@ -60,7 +60,7 @@ void SliceWindow::build(const std::vector<int>& which) {
                         interpolationVariance(lf_.T, lf_.S, plan_.slopes[which[j]]),
                         built[j - first].get(), scratch[j - first].get()});
     buildScaleSpaces(builds, settings_.layers, settings_.sigma, settings_.octaves,
-                     plan_.blurTarget, settings_.detectionOnly);
+                     settings_.firstOctave, plan_.blurTarget, settings_.detectionOnly);
     for (size_t j = first; j < last; ++j) spaces_[which[j]] = built[j - first];
     for (std::unique_ptr<BuildScratch>& s : scratch) pool_.giveScratch(std::move(s));
   }

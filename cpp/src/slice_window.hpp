@@ -18,7 +18,8 @@ namespace detail {
 struct ScaleSpaceSettings {
   int layers;          // nOctaveLayers
   double sigma;        // base octave's sigma
-  int octaves;         // numOctaves(view size)
+  int octaves;         // numOctaves(view size, firstOctave)
+  int firstOctave;     // -1: the slice upsampled 2x first; 0: at the views' size
   bool detectionOnly;  // drop the Gaussians no detected keypoint can use
 };
 

@@ -109,9 +109,13 @@ std::vector<double> surveyLevel(const LightField& small, int factor, const std::
   SlopePlan plan = guardedPlan(searched, step / factor, small.T, small.S);
   Parameters survey = p;
   survey.nfeatures = 0;
-  const int octaves = numOctaves(small.viewSize());
+  // The survey's own detection keeps SIFT's first octave whatever the caller's: the
+  // decimated views' small features are what it measures slopes on.
+  survey.firstOctave = kDefaultFirstOctave;
+  const int octaves = numOctaves(small.viewSize(), survey.firstOctave);
   const Call call{survey, small,
-                  plan,   ScaleSpaceSettings{survey.nOctaveLayers, p.sigma, octaves, true},
+                  plan,   ScaleSpaceSettings{survey.nOctaveLayers, p.sigma, octaves,
+                                             survey.firstOctave, true},
                   batch,  std::max(kSlicesPerPass, batch + 1)};
   const Detections found = detectInSlices(call, cv::Mat(), false);
   // One coherence test per extremum (its orientations share position, size and slope).

@@ -58,7 +58,7 @@ TEST(ScaleSpaceSize, EveryOctaveHoldsItsGaussiansAndDoGsAtHalfTheSizeOfTheLast) 
       ASSERT_EQ(space.gaussians.size(), size_t(space.octaves) * (layers + 3));
       ASSERT_EQ(space.dogs.size(), size_t(space.octaves) * (layers + 2));
       for (int o = 0; o < space.octaves; ++o) {
-        const cv::Size size(2 * view.width >> o, 2 * view.height >> o);
+        const cv::Size size(2 * view.width >> o, 2 * view.height >> o);  // first octave -1
         for (int i = 0; i < layers + 3; ++i) EXPECT_EQ(space.gaussian(o, i).size(), size);
         for (int i = 0; i < layers + 2; ++i) {
           ASSERT_EQ(space.dog(o, i).size(), size);
@@ -68,6 +68,26 @@ TEST(ScaleSpaceSize, EveryOctaveHoldsItsGaussiansAndDoGsAtHalfTheSizeOfTheLast) 
         }
       }
     }
+}
+
+// With first octave 0 the pyramid starts at the view's own size, with cv::SIFT's
+// count of octaves for it, round(log2(min side) - 2), and its first Gaussian is the
+// view blurred from the assumed 0.5 to sigma.
+TEST(ScaleSpaceSize, FirstOctaveZeroStartsAtTheViewsSize) {
+  const cv::Size view(40, 30);
+  EXPECT_EQ(liff::detail::numOctaves(view, 0), 3);  // log2(30) - 2 = 2.91
+  EXPECT_EQ(liff::detail::numOctaves(cv::Size(512, 512), 0), 7);
+  cv::Mat slice(view, CV_32F);
+  cv::randu(slice, 0.f, 1.f);
+  ScaleSpace space;
+  buildScaleSpace(slice, 3, 1.6, numOctaves(view, 0), cv::Vec2d(0, 0), cv::Vec2d(0, 0), false,
+                  space, nullptr, 0);
+  ASSERT_EQ(space.octaves, numOctaves(view, 0));
+  for (int o = 0; o < space.octaves; ++o)
+    EXPECT_EQ(space.gaussian(o, 0).size(), cv::Size(view.width >> o, view.height >> o));
+  cv::Mat expected;
+  cv::GaussianBlur(slice, expected, cv::Size(), std::sqrt(1.6 * 1.6 - 0.25));
+  EXPECT_LE(cv::norm(space.gaussian(0, 0), expected, cv::NORM_INF), 2e-6);
 }
 
 // Detection needs the DoGs and, for orientations, Gaussians 1 .. layers only.

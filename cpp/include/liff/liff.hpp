@@ -60,7 +60,8 @@ class CV_EXPORTS_W LiFF : public cv::Feature2D {
                               double lastSlope = Parameters().lastSlope,
                               int numSlopes = Parameters().numSlopes,
                               int descriptorType = Parameters().descriptorType,
-                              bool rootSift = Parameters().rootSift);
+                              bool rootSift = Parameters().rootSift,
+                              int firstOctave = Parameters().firstOctave);
 
 #define LIFF_DECLARE_ACCESSORS(Type, name, Name, value, help) \
   virtual void set##Name(Type name) = 0;                       \

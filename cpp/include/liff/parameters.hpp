@@ -39,7 +39,11 @@
   X(int, descriptorType, DescriptorType, CV_32F,                                                \
     "descriptor element type, CV_32F (5) or CV_8U (0); SIFT's integers in [0, 255] either way") \
   X(bool, rootSift, RootSift, false,                                                            \
-    "RootSIFT normalisation (L1, then square root), which the paper found better for SfM")
+    "RootSIFT normalisation (L1, then square root), which the paper found better for SfM")    \
+  X(int, firstOctave, FirstOctave, -1,                                                          \
+    "first octave of each focal slice's scale space, as SIFT's: -1 upsamples the views 2x "   \
+    "first (cv::SIFT's default; finds the smallest features), 0 starts at the views' own "    \
+    "size (the authors' toolbox; about a third of the time); in [-1, 0]")
 
 namespace liff {
 

@@ -3,6 +3,8 @@
 #include <opencv2/core.hpp>
 #include <string>
 
+#include <liff/liff.hpp>
+
 #include "bindings.hpp"
 #include "light_field.hpp"
 #include "profile.hpp"
@@ -23,6 +25,19 @@ void BindThreads(py::module_& m) {
 }
 
 void BindAllocation(py::module_& m) {
+  m.def("releaseWorkingMemory", &releaseWorkingMemory,
+        "Frees the working memory the core keeps between calls.\n\n"
+        "The core keeps the large buffers a call frees (grey light field, focal slices,\n"
+        "scale spaces; Mats of 4 KiB or more of the system OpenCV) for the next call, so\n"
+        "a second call takes almost no page faults; in use and kept together stay within\n"
+        "twice what the process had in use at once so far. A call's memory limit counts kept memory as available.");
+  m.def("keptWorkingMemoryBytes", &keptWorkingMemoryBytes,
+        "Bytes the core keeps for reuse now (see releaseWorkingMemory).");
+  m.def("setWorkingMemoryReuse", &setWorkingMemoryReuse, "enabled"_a,
+        "Turns the keeping of working memory on (the default) or off (what is kept is\n"
+        "freed, and nothing is kept from then on).");
+  m.def("getWorkingMemoryReuse", &getWorkingMemoryReuse,
+        "Whether the core keeps working memory between calls (setWorkingMemoryReuse).");
   m.def("_set_view_by_view_allocation", &detail::setViewByViewAllocation, "enabled"_a,
         "liff._allocator only: allocate a converted light field view by view (for a\n"
         "process that keeps freed memory) or as one buffer (the default); returns the\n"

@@ -13,6 +13,20 @@
 
 namespace liff {
 namespace detail {
+namespace {
+
+// Per-thread scratch of at least n floats, kept from call to call (one per user, so
+// they never overlap): a cv::AutoBuffer per keypoint had the C allocator map, and the
+// kernel fault in, fresh pages for every large window.
+enum Scratch { kOrientationScratch, kDescriptorScratch };
+float* threadScratch(Scratch which, size_t n) {
+  thread_local std::vector<float> buffers[2];
+  std::vector<float>& buffer = buffers[which];
+  if (buffer.size() < n) buffer.resize(n);
+  return buffer.data();
+}
+
+}  // namespace
 
 float orientationHistogram(const cv::Mat& image, cv::Point centre, int radius, float sigma,
                            float* hist) {
@@ -20,8 +34,7 @@ float orientationHistogram(const cv::Mat& image, cv::Point centre, int radius, f
   const float expScale = -1.f / (2.f * sigma * sigma);
   const size_t side = size_t(2 * radius + 1), capacity = side * side;
   // Gather the gradients first, then take exp / atan2 / magnitude in vectorised batches.
-  cv::AutoBuffer<float> buffer(capacity * 4 + n + 4);
-  float *X = buffer.data(), *Y = X + capacity, *W = Y + capacity, *A = W + capacity;
+  float *X = threadScratch(kOrientationScratch, capacity * 4 + n + 4), *Y = X + capacity, *W = Y + capacity, *A = W + capacity;
   float* temp = A + capacity + 2;  // two guard bins each side for circular smoothing
   int count = 0;
   for (int i = -radius; i <= radius; ++i) {
@@ -156,8 +169,7 @@ void rawDescriptor(const cv::Mat& image, cv::Point2f point, float angleDegrees, 
   const int jBegin = std::max(-radius, 1 - centre.x), jEnd = std::min(radius, image.cols - 2 - centre.x);
   const size_t capacity = std::max<size_t>(
       1, size_t(std::max(0, iEnd - iBegin + 1)) * size_t(std::max(0, jEnd - jBegin + 1)));
-  cv::AutoBuffer<float> buffer(capacity * 6);
-  float *X = buffer.data(), *Y = X + capacity, *W = Y + capacity, *R = W + capacity,
+  float *X = threadScratch(kDescriptorScratch, capacity * 6), *Y = X + capacity, *W = Y + capacity, *R = W + capacity,
         *C = R + capacity, *O = C + capacity;
   int count = 0;
   for (int i = iBegin; i <= iEnd; ++i) {

@@ -20,6 +20,7 @@
 #include "scale_space.hpp"
 #include "slope_plan.hpp"
 #include "slope_range.hpp"
+#include "working_memory.hpp"
 
 namespace liff {
 
@@ -231,6 +232,7 @@ std::vector<double> LiFF_Impl::slopesFor(cv::InputArray image) {
   const Parameters parameters = parameters_;
   const cv::Mat input = image.getMat();
   LightField lf = detail::checkLightField(input);
+  detail::installWorkingMemory();
   if (!detail::automaticRange(parameters) || (lf.T == 1 && lf.S == 1)) return slopesFor(lf.T, lf.S);
   int batch = 1;
   convert(parameters, input, lf, batch);
@@ -241,6 +243,7 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
                                  std::vector<cv::KeyPoint>& keypoints,
                                  cv::OutputArray descriptorsOut, bool useProvidedKeypoints) {
   const Parameters parameters = parameters_;  // this call's, whatever setters do meanwhile
+  detail::installWorkingMemory();
   const cv::Mat input = image.getMat();
   LightField lf = detail::checkLightField(input);
   const cv::Mat mask = maskArray.getMat();

@@ -1,5 +1,7 @@
 #include "memory.hpp"
 
+#include <liff/liff.hpp>
+
 #include "focal_stack.hpp"
 #include "scale_space.hpp"
 
@@ -106,8 +108,10 @@ MemoryEstimate sliceMemory(cv::Size viewSize, int layers, int octaves, int first
 
 double availableMemoryBytes() {
   const double available = memAvailable(), room = cgroupRoom();
-  if (available < 0) return room > 0 ? room : 0;
-  return room >= 0 ? std::min(available, room) : available;
+  // Memory the core keeps for reuse is free for the call.
+  const double kept = double(keptWorkingMemoryBytes());
+  if (available < 0) return room > 0 ? room + kept : 0;
+  return (room >= 0 ? std::min(available, room) : available) + kept;
 }
 
 }  // namespace detail

@@ -7,7 +7,8 @@ pixel column, channel) instead of an image. Keypoints and descriptors are what
 disparity) is in ``class_id`` and read with :func:`keypoint_slopes`.
 """
 
-from ._core import getNumThreads, opencvVersion, setNumThreads
+from ._core import (getNumThreads, getWorkingMemoryReuse, keptWorkingMemoryBytes, opencvVersion,
+                    releaseWorkingMemory, setNumThreads, setWorkingMemoryReuse)
 from ._detector import PARAMETERS, LiFF, LiFF_create
 from ._warnings import IntensityWarning, LensletSizeWarning, LiffWarning, SlopeRangeWarning
 from .keypoint_rows import SLOPE_SCALE, keypoint_slopes
@@ -30,6 +31,10 @@ __all__ = [
     "setNumThreads",
     "getNumThreads",
     "opencvVersion",
+    "releaseWorkingMemory",
+    "keptWorkingMemoryBytes",
+    "setWorkingMemoryReuse",
+    "getWorkingMemoryReuse",
 ]
 __version__ = "0.1.0"
 

@@ -36,6 +36,20 @@ double keypointSlope(const cv::KeyPoint& keypoint);
 /// class_id that encodes a slope: round(slope * kSlopeScale).
 int slopeToClassId(double slope);
 
+/// Working memory. The detector keeps the large buffers a call frees (the grey light
+/// field, focal slices, scale spaces: every Mat of a page (4 KiB) or more of the system
+/// OpenCV, which it allocates through its own allocator from its first call on) and
+/// reuses them in the next call, in any thread, so a second call on a light field of
+/// the same size takes almost no page faults. In use and kept together stay within
+/// twice what the process had in use at once so far (the largest call), and a call's
+/// memory limit counts kept memory as available. releaseWorkingMemory() frees what is kept now; setWorkingMemoryReuse
+/// (false) frees it and keeps nothing from then on.
+void releaseWorkingMemory();
+/// Bytes kept for reuse now (freed by the last calls, not in use).
+size_t keptWorkingMemoryBytes();
+void setWorkingMemoryReuse(bool enabled);
+bool getWorkingMemoryReuse();
+
 /// LiFF detector and descriptor: SIFT extended to the 4-D light field.
 ///
 /// Every parameter of LIFF_PARAMETERS (liff/parameters.hpp) has a getter and a setter,

@@ -1,0 +1,32 @@
+// The core's working memory, kept from call to call: an OpenCV allocator that keeps
+// the large buffers a detection frees (grey light field, focal slices, scale spaces)
+// and hands them to the next call, so a second call does not fault in and zero its
+// pages again, whatever the C library's allocator settings and in any thread.
+#pragma once
+
+#include <cstddef>
+
+namespace liff {
+namespace detail {
+
+/// Buffers of at least a page are kept for reuse: glibc maps those over its mmap
+/// threshold afresh on each call and gives the top of its heaps back once more than
+/// M_TRIM_THRESHOLD is free there (Dask's nanny sets it to 64 KiB), so smaller ones
+/// would be faulted in again too. Smaller buffers cost no page of their own.
+constexpr size_t kKeptBufferMinBytes = 4096;
+/// In use plus kept stays within this multiple of the most ever in use at once: a call's
+/// phases use buffers of different sizes (the slope survey's decimated light fields,
+/// then the focal slices and scale spaces), all of which the next call asks for again,
+/// so keeping them all takes more than the peak of any one moment (1.3x on the
+/// Illum-size scene).
+constexpr double kKeptPeakShare = 2.0;
+/// A kept buffer serves a request of at least this share of its size.
+constexpr double kKeptBufferMinFill = 1.0;
+
+/// Called at the start of each call: makes the reusing allocator the system OpenCV's
+/// default for Mats (the first time, unless reuse was turned off) and counts the call
+/// (kept buffers no call has used since the one before are given back on a miss).
+void installWorkingMemory();
+
+}  // namespace detail
+}  // namespace liff

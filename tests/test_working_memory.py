@@ -1,0 +1,72 @@
+"""The core keeps its working memory between calls (liff.keptWorkingMemoryBytes):
+the same results from kept memory, what is kept bounded and released on request."""
+
+import threading
+
+import numpy as np
+import pytest
+
+import liff
+from liff import synthetic
+from lfhelpers import assert_same_keypoints, blob_grid
+
+
+@pytest.fixture
+def reuse_on():
+    liff.setWorkingMemoryReuse(True)
+    yield
+    liff.setWorkingMemoryReuse(True)
+
+
+def scene(shape, slopes):
+    return synthetic.render_disks(blob_grid(shape, slopes), shape, profile="gaussian")
+
+
+def detect(lf, **kwargs):
+    return liff.LiFF.create(**kwargs).detectAndCompute(lf, None)
+
+
+def test_a_second_call_from_kept_memory_gives_the_same_result(reuse_on):
+    lf = scene((5, 5, 96, 128), [-0.5, 0.5])
+    first, d1 = detect(lf)
+    kept = liff.keptWorkingMemoryBytes()
+    assert kept > 0  # the pyramids' buffers, at least
+    second, d2 = detect(lf)
+    assert_same_keypoints(first, second)
+    np.testing.assert_array_equal(d1, d2)
+    # Kept memory is reused, not added to: the same call keeps the same amount.
+    assert liff.keptWorkingMemoryBytes() == kept
+
+
+def test_kept_memory_serves_other_threads_and_other_sizes(reuse_on):
+    small = scene((3, 3, 64, 80), [0.0])
+    large = scene((5, 5, 120, 160), [-0.5, 0.5])
+    expected = {name: detect(lf) for name, lf in (("small", small), ("large", large))}
+    results = {}
+
+    def run():
+        for name, lf in (("large", large), ("small", small), ("large", large)):
+            results[name] = detect(lf)
+
+    thread = threading.Thread(target=run)
+    thread.start()
+    thread.join()
+    for name in expected:
+        assert_same_keypoints(expected[name][0], results[name][0])
+        np.testing.assert_array_equal(expected[name][1], results[name][1])
+
+
+def test_release_and_turning_reuse_off_keep_nothing(reuse_on):
+    lf = scene((3, 3, 64, 80), [0.0])
+    detect(lf)
+    assert liff.keptWorkingMemoryBytes() > 0
+    liff.releaseWorkingMemory()
+    assert liff.keptWorkingMemoryBytes() == 0
+    liff.setWorkingMemoryReuse(False)
+    assert liff.getWorkingMemoryReuse() is False
+    kps, _ = detect(lf)
+    assert liff.keptWorkingMemoryBytes() == 0
+    liff.setWorkingMemoryReuse(True)
+    again, _ = detect(lf)
+    assert_same_keypoints(kps, again)
+    assert liff.keptWorkingMemoryBytes() > 0

@@ -17,8 +17,8 @@ before each run is printed.
 
 First, the time and size of one light field's feature file as `liff detect` writes it,
 against numpy's savez_compressed of the same arrays; and the processor time and page
-faults of detections in a process that keeps freed memory for the next light field
-(liff._allocator, as every task's process does) against glibc's defaults, in the main
+faults of detections in one process with the core's working memory kept between calls
+(the default) and without, under glibc's defaults and Dask's nanny settings, in the main
 thread and in another one (as a Dask task runs). Besides wall times, each task
 reports its own seconds and CPU seconds (liff.batch's Outcome). A set-up's gap per task, wall x workers / tasks - mean task seconds, is the
 time a worker spent not running a task (scheduling, transfers, the tail of the run).
@@ -108,23 +108,20 @@ def feature_file_costs(path: str, folder: str, repeats: int = 3) -> None:
         print(f"  {name}: {best:.3f} s, {os.path.getsize(target) / 2**20:.2f} MiB")
 
 
-# One-thread detections of a light field in a fresh process, the first to warm up, in
-# the main thread or in another one (as a Dask task runs): CPU seconds (user, system)
-# and page faults of each later one, as JSON.
+# One-thread detections of a light field in a fresh process, in the main thread or in
+# another one (as a Dask task runs), with the core's working memory kept between calls
+# (the default) or not: CPU seconds (user, system) and page faults of each, as JSON.
 _ALLOCATOR_SCRIPT = """
 import json, resource, sys, threading
 import numpy as np
 import liff
-from liff import _allocator
-if sys.argv[2] == "kept":
-    _allocator.reuse_freed_memory()
+liff.setWorkingMemoryReuse(sys.argv[2] == "kept")
 lf = np.load(sys.argv[1])
 liff.setNumThreads(1)
 detector = liff.LiFF.create()
 calls = []
 def detect():
-    detector.detectAndCompute(lf, None)
-    for _ in range(3):
+    for _ in range(4):
         before = resource.getrusage(resource.RUSAGE_THREAD)
         detector.detectAndCompute(lf, None)
         after = resource.getrusage(resource.RUSAGE_THREAD)
@@ -141,24 +138,33 @@ print(json.dumps(calls))
 
 
 def allocator_costs(path: str) -> None:
-    """Prints what glibc's defaults cost a process that detects light field after light
-    field against one whose freed memory is kept (liff._allocator), in fresh processes,
-    alternating, in the main thread and in another thread (where a Dask task runs):
-    median user and system CPU seconds and page faults per detection."""
-    setups = [(f"{memory}, {where} thread", mode, where)
+    """Prints what detecting light field after light field costs a process with the
+    core's working memory kept between calls (the default) and without, under glibc's
+    defaults and under Dask's nanny settings (MALLOC_TRIM_THRESHOLD_=65536), in fresh
+    processes, alternating, in the main thread and in another thread (where a Dask task
+    runs): the first call's page faults, and the median user and system CPU seconds and
+    page faults of the later ones."""
+    nanny = dict(os.environ, MALLOC_TRIM_THRESHOLD_="65536")
+    setups = [(f"{memory}, {allocator}, {where} thread", mode, where, env)
+              for allocator, env in (("glibc defaults", dict(os.environ)), ("Dask nanny", nanny))
               for where in ("main", "another")
-              for memory, mode in (("glibc defaults", "default"), ("freed memory kept", "kept"))]
-    costs = {name: [] for name, _, _ in setups}
+              for memory, mode in (("kept", "kept"), ("not kept", "off"))]
+    costs = {name: [] for name, *_ in setups}
     for _ in range(2):
-        for name, mode, where in setups:
+        for name, mode, where, env in setups:
             out = subprocess.run([sys.executable, "-c", _ALLOCATOR_SCRIPT, path, mode,
                                   "thread" if where == "another" else "main"],
-                                 capture_output=True, text=True, check=True)
-            costs[name] += json.loads(out.stdout.strip().splitlines()[-1])
-    print("one-thread detections in one process (after a first one), median of 6:")
-    for name, calls in costs.items():
-        user, system, faults = (statistics.median(c[i] for c in calls) for i in range(3))
-        print(f"  {name}: user {user:.3f} s, system {system:.3f} s, {faults:.0f} page faults")
+                                 capture_output=True, text=True, check=True, env=env)
+            costs[name].append(json.loads(out.stdout.strip().splitlines()[-1]))
+    print("one-thread detections in one process: working memory kept or not; first call's "
+          "page faults (median of 2 processes), later calls' median of 6:")
+    for name, runs in costs.items():
+        first = statistics.median(run[0][2] for run in runs)
+        later = [c for run in runs for c in run[1:]]
+        user, system, faults = (statistics.median(c[i] for c in later) for i in range(3))
+        print(f"  {name}: first call {first:.0f} page faults; later calls user {user:.3f} s, "
+              f"system {system:.3f} s, {faults:.0f} page faults ({100 * faults / first:.1f}% "
+              "of the first)")
 
 
 def tasks_into(paths: list, folder: str) -> list:
@@ -217,7 +223,7 @@ SETUPS = ("local, 1 worker x 1 thread", "local, 1 worker x 2 threads",
 #: keeps the workers' statistical profiler running during the run, which liff pauses
 #: (it samples the task's thread from the worker's event loop every 10 ms; liff's
 #: _dask_workers). (Earlier runs' fifth set-ups: workers started with MALLOC_ARENA_MAX=1,
-#: no better once liff._allocator kept a thread's memory; the profiler turned off in the
+#: no better once a thread's memory was kept (then by tuning glibc, now by the core itself); the profiler turned off in the
 #: workers' configuration, as fast as pausing it.)
 DASK_CONFIG = {SETUPS[3]: {}, SETUPS[4]: {}}
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import liff
-from liff import _allocator, batch
+from liff import batch
 from liff.cli import main
 from liff.feature_file import load_features
 
@@ -159,7 +159,7 @@ def test_a_task_takes_its_workers_threads_and_memory(tmp_path, monkeypatch):
     light field too large for the worker fails with MemoryError instead of killing it."""
     small = write_light_fields(tmp_path, 1, (3, 3, 32, 32), "small")
     large = write_light_fields(tmp_path, 1, (3, 3, 512, 512), "large")  # needs about 150 MB
-    held = _allocator.held_bytes()  # as the task counts it: free heap memory is reused
+    held = liff.cli.common.held_bytes()  # as the task counts it: kept working memory is reused
     limit = int((held + 90 * 2**20) / batch.MEMORY_SHARE)  # about 90 MB for each task
     threads, budget = liff.getNumThreads(), liff.cli.common.memory_budget_bytes
     # The worker shares this test process, already near the limit: Dask must not pause it.

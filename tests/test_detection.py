@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import liff
-from liff import _core, synthetic
+from liff import synthetic
 
 from lfhelpers import (assert_same_keypoints, blob_grid, match_blobs, points, textured_lf,
                        to_dtype)
@@ -160,27 +160,6 @@ def test_blob_outside_slope_range_not_reported_at_wrong_depth():
     kps = liff.LiFF.create(firstSlope=-1, lastSlope=-0.5).detect(lf)
     slopes = liff.keypoint_slopes(kps)
     assert np.all((slopes >= -1) & (slopes <= -0.5))
-
-
-def test_a_light_field_allocated_view_by_view_gives_the_same_features():
-    """A process that keeps freed memory (liff._allocator) has LiFF allocate a light field
-    view by view, not as one buffer: the same features."""
-    lf = to_dtype(textured_lf((5, 5, 60, 70), slope=1), np.uint8)
-    alpha = np.random.default_rng(3).integers(100, 256, lf.shape, dtype=np.uint8)
-    bgra = np.stack([lf, lf // 2, lf, alpha], axis=-1)  # the weights allocated too
-    detector = liff.LiFF.create(firstSlope=-2, lastSlope=2, numSlopes=9)
-    previous = _core._set_view_by_view_allocation(False)
-    try:
-        for light_field in (lf, bgra):
-            one_buffer = detector.detectAndCompute(light_field, None)
-            _core._set_view_by_view_allocation(True)
-            by_view = detector.detectAndCompute(light_field, None)
-            _core._set_view_by_view_allocation(False)
-            assert len(one_buffer[0]) > 10
-            assert_same_keypoints(by_view[0], one_buffer[0])
-            np.testing.assert_array_equal(by_view[1], one_buffer[1])
-    finally:
-        _core._set_view_by_view_allocation(previous)
 
 
 def test_first_octave_zero_finds_the_same_disks_without_the_smallest_scales():

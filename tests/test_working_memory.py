@@ -8,7 +8,7 @@ import pytest
 
 import liff
 from liff import synthetic
-from lfhelpers import assert_same_keypoints, blob_grid
+from lfhelpers import assert_same_keypoints, blob_grid, textured_lf, to_dtype
 
 
 @pytest.fixture
@@ -70,3 +70,20 @@ def test_release_and_turning_reuse_off_keep_nothing(reuse_on):
     again, _ = detect(lf)
     assert_same_keypoints(kps, again)
     assert liff.keptWorkingMemoryBytes() > 0
+
+
+def test_kept_memory_gives_what_fresh_memory_gives_with_weights_too(reuse_on):
+    """Grey and BGRA (alpha weights: a second buffer) light fields, detected with
+    memory kept from earlier calls and with reuse off: the same features."""
+    lf = to_dtype(textured_lf((5, 5, 60, 70), slope=1), np.uint8)
+    alpha = np.random.default_rng(3).integers(100, 256, lf.shape, dtype=np.uint8)
+    bgra = np.stack([lf, lf // 2, lf, alpha], axis=-1)
+    for light_field in (lf, bgra):
+        detect(light_field, firstSlope=-2, lastSlope=2, numSlopes=9)
+        kept = detect(light_field, firstSlope=-2, lastSlope=2, numSlopes=9)
+        liff.setWorkingMemoryReuse(False)
+        fresh = detect(light_field, firstSlope=-2, lastSlope=2, numSlopes=9)
+        liff.setWorkingMemoryReuse(True)
+        assert len(kept[0]) > 10
+        assert_same_keypoints(kept[0], fresh[0])
+        np.testing.assert_array_equal(kept[1], fresh[1])

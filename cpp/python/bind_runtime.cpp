@@ -3,10 +3,11 @@
 #include <opencv2/core.hpp>
 #include <string>
 
+#include <pybind11/stl.h>
+
 #include <liff/liff.hpp>
 
 #include "bindings.hpp"
-#include "light_field.hpp"
 #include "profile.hpp"
 
 namespace liff {
@@ -38,10 +39,6 @@ void BindAllocation(py::module_& m) {
         "freed, and nothing is kept from then on).");
   m.def("getWorkingMemoryReuse", &getWorkingMemoryReuse,
         "Whether the core keeps working memory between calls (setWorkingMemoryReuse).");
-  m.def("_set_view_by_view_allocation", &detail::setViewByViewAllocation, "enabled"_a,
-        "liff._allocator only: allocate a converted light field view by view (for a\n"
-        "process that keeps freed memory) or as one buffer (the default); returns the\n"
-        "previous setting.");
 }
 
 void BindVersion(py::module_& m) {
@@ -56,15 +53,27 @@ void BindProfiling(py::module_& m) {
   m.def("_reset_profile", &detail::resetProfile, "Benchmarks only: zero the stage timers.");
   m.def(
       "_stage_seconds",
-      [] {
-        const auto s = detail::stageSeconds();
+      [](bool inLoops) {
+        const auto s = detail::stageSeconds(inLoops);
         py::dict d;
         const char* names[] = {"focal_stack", "scale_space", "extrema", "refinement",
                                "descriptors"};
         for (int i = 0; i < detail::kStageCount; ++i) d[names[i]] = s[i];
         return d;
       },
-      "Benchmarks only: seconds per stage, summed over threads, since the last reset.");
+      "in_loops"_a = false,
+      "Benchmarks only: seconds per stage, summed over threads, since the last reset\n"
+      "(with in_loops, only the part inside profiled parallel loops).");
+  m.def(
+      "_parallel_loops",
+      [] {
+        py::list loops;
+        for (const detail::LoopRecord& loop : detail::loopRecords())
+          loops.append(py::make_tuple(loop.wall, loop.tasks));
+        return loops;
+      },
+      "Benchmarks only: (wall seconds, [seconds of each task]) of every outermost parallel\n"
+      "loop since the last reset, in call order (each index a task while profiling).");
 }
 
 }  // namespace python

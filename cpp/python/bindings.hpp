@@ -12,7 +12,7 @@ void BindParameters(py::module_& m);  // PARAMETERS: the parameter table
 void BindLiFF(py::module_& m);        // the detector
 void BindThreads(py::module_& m);     // setNumThreads, getNumThreads
 void BindVersion(py::module_& m);     // opencvVersion
-void BindAllocation(py::module_& m);  // _set_view_by_view_allocation (liff._allocator)
+void BindAllocation(py::module_& m);  // releaseWorkingMemory, keptWorkingMemoryBytes, ...
 void BindProfiling(py::module_& m);   // stage timers, for benchmarks
 
 }  // namespace python

@@ -1,4 +1,5 @@
 #include "light_field.hpp"
+#include "profile.hpp"
 
 #include "hot_loop.hpp"
 
@@ -64,7 +65,7 @@ LIFF_HOT_LOOP int firstNonFinite(const float* row, int n) {
 // layout) that is NaN or infinite; views are checked in parallel.
 void checkFinite(const std::vector<cv::Mat>& data, const LightField& lf, const char* what) {
   std::vector<int> badRow(data.size(), -1), badCol(data.size(), -1);
-  cv::parallel_for_(cv::Range(0, int(data.size())), [&](const cv::Range& range) {
+  parallelFor(cv::Range(0, int(data.size())), [&](const cv::Range& range) {
     for (int v = range.start; v < range.end; ++v)
       for (int y = 0; y < lf.V; ++y) {
         const int x = firstNonFinite(data[v].ptr<float>(y), lf.U);
@@ -131,25 +132,15 @@ LightField checkLightField(const cv::Mat& input) {
 }
 
 namespace {
-std::atomic<bool> viewByView{false};  // setViewByViewAllocation
 // Bookkeeping of one allocation beyond its data (cv::Mat's reference count and
 // alignment, the C allocator's chunk header), at most.
 constexpr double kPerAllocationBytes = 128;
 }  // namespace
 
-bool setViewByViewAllocation(bool enabled) { return viewByView.exchange(enabled); }
-
 void LightField::allocate(bool withWeights) {
   const size_t count = size_t(T) * S;
   views.resize(count);
   weights.resize(withWeights ? count : 0);
-  if (viewByView) {
-    for (size_t v = 0; v < count; ++v) {
-      views[v].create(V, U, CV_32F);
-      if (withWeights) weights[v].create(V, U, CV_32F);
-    }
-    return;
-  }
   // One buffer of views one after another, each view's header sharing it, and one of
   // weights (apart, so that dropping all-1 weights frees theirs).
   const cv::Mat viewBuffer(int(count), V * U, CV_32F);
@@ -184,8 +175,8 @@ bool usedAsIs(const cv::Mat& input) {
 
 double conversionBytes(const cv::Mat& input, const LightField& lf) {
   const int planes = input.channels() % 2 == 0 ? 2 : 1;  // values (and weights)
-  // A header per view (and weight map), and with view-by-view allocation the
-  // allocator's bookkeeping of each: what matters for many tiny views.
+  // A header per view (and weight map) and the allocator's bookkeeping of each: what
+  // matters for many tiny views.
   const double headers = double(lf.T) * lf.S * planes * (sizeof(cv::Mat) + kPerAllocationBytes);
   if (usedAsIs(input)) return headers;
   const double samples = double(lf.T) * lf.S * lf.V * lf.U;
@@ -205,7 +196,7 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
     // Convert view by view, so a colour or integer light field never exists as a
     // whole in float colour.
     const double scale = unitScale(depth);
-    cv::parallel_for_(cv::Range(0, views), [&](const cv::Range& range) {
+    parallelFor(cv::Range(0, views), [&](const cv::Range& range) {
       cv::Mat converted;
       for (int v = range.start; v < range.end; ++v) {
         const cv::Mat src = inputView(input, v / lf.S, v % lf.S);
@@ -254,7 +245,7 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
       lf.weights.clear();  // all samples fully valid: the unweighted focal stack is the same
     } else {
       // Premultiply (views hold w * L) view by view; the views are our own buffers here.
-      cv::parallel_for_(cv::Range(0, views), [&](const cv::Range& range) {
+      parallelFor(cv::Range(0, views), [&](const cv::Range& range) {
         for (int v = range.start; v < range.end; ++v)
           cv::multiply(lf.views[v], lf.weights[v], lf.views[v]);
       });
@@ -275,7 +266,7 @@ LightField decimate(const LightField& lf, int factor) {
     const cv::Mat view = from.rowRange(0, small.V * factor).colRange(0, small.U * factor);
     cv::resize(view, to, to.size(), 0, 0, cv::INTER_AREA);
   };
-  cv::parallel_for_(cv::Range(0, int(small.views.size())), [&](const cv::Range& range) {
+  parallelFor(cv::Range(0, int(small.views.size())), [&](const cv::Range& range) {
     for (int v = range.start; v < range.end; ++v) {
       shrink(lf.views[v], small.views[v]);
       if (!lf.weights.empty()) shrink(lf.weights[v], small.weights[v]);

@@ -10,7 +10,7 @@ namespace detail {
 
 /// A grey light field L(t, s, v, u) in float, values nominally in [0, 1].
 /// View (t, s) is views[t * S + s]: V x U CV_32F with continuous rows, a header into
-/// the caller's data or into the buffer(s) allocate() made (setViewByViewAllocation).
+/// the caller's data or into the buffer allocate() made.
 /// When the input carried an alpha channel, `weights` (same layout) holds each
 /// sample's validity weight w >= 0 and `views` holds w * L (premultiplied), so the
 /// focal stack is sum(w L) / sum(w); otherwise `weights` is empty (all weights 1).
@@ -26,20 +26,11 @@ struct LightField {
   const cv::Mat& viewMat(int t, int s) const { return views[size_t(t) * S + s]; }
   cv::Size viewSize() const { return cv::Size(U, V); }
   /// Allocates every view (and, when `withWeights`, every weight map) as V x U
-  /// CV_32F, uninitialised, in the calling thread: one buffer, or one per view.
+  /// CV_32F, uninitialised: views one after another in one buffer, weights in another
+  /// (kept between calls: working_memory.hpp).
   void allocate(bool withWeights);
 };
 
-/// How LightField::allocate lays out a converted light field, for the whole process.
-/// By default one buffer: glibc maps a large one from the system and unmaps it when
-/// freed, apart from the heap, whose freed top glibc's defaults return to the system
-/// (views in the heap: 64,000 page faults per one-thread detection of an Illum-size
-/// light field in a process with glibc's defaults, against 54,000). With `enabled`, one
-/// allocation per view, which a process that keeps freed memory (liff._allocator)
-/// reuses from call to call in any thread; one buffer larger than a thread arena's heap
-/// (64 MiB) would be mapped anew on every call, 24,000 page faults per detection in a
-/// Dask task (docs/BATCH.md). Returns the previous setting.
-bool setViewByViewAllocation(bool enabled);
 /// Validates a stacked light field Mat (4-D {T, S, V, U} or 2-D {V, U}; 1 (grey),
 /// 2 (grey + alpha), 3 (BGR) or 4 (BGRA) channels; 8U, 16U, 32F or 64F) and fills in
 /// the sizes, no data yet; throws cv::Exception (StsBadArg / StsBadSize) naming what

@@ -1,12 +1,15 @@
-// Optional per-stage timing for benchmarks/speed.py, off by default (one relaxed
-// atomic load per timed block when off). Blocks are timed inside the parallel
-// loops, so stages are thread-seconds (summed over threads). A slice built alone
-// with row-parallel blurs counts the wall time of its calling thread.
+// Optional per-stage timing for benchmarks/speed.py and core_speed.py, off by default
+// (one relaxed atomic load per timed block when off). Blocks are timed inside the
+// parallel loops, so stages are thread-seconds (summed over threads); each parallel
+// loop is also recorded task by task (parallelFor).
 #pragma once
+
+#include <opencv2/core.hpp>
 
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <vector>
 
 namespace liff {
 namespace detail {
@@ -17,8 +20,9 @@ void setProfiling(bool enabled);
 bool profiling();
 void resetProfile();
 void addStageTime(Stage stage, std::chrono::steady_clock::duration elapsed);
-/// Thread-seconds per stage (see above); kExtrema excludes kRefinement.
-std::array<double, kStageCount> stageSeconds();
+/// Thread-seconds per stage (see above); kExtrema excludes kRefinement. With
+/// `inLoops`, only the part timed inside profiled parallel loops (parallelFor).
+std::array<double, kStageCount> stageSeconds(bool inLoops = false);
 
 /// Adds the lifetime of this object to `stage` when profiling is on.
 class StageTimer {
@@ -40,6 +44,49 @@ class StageTimer {
   bool on_;
   std::chrono::steady_clock::time_point start_;
 };
+
+/// One parallel loop as profiled: its wall time and each index's time, in seconds.
+/// benchmarks/core_speed.py predicts the speed-up at P threads from these: the time
+/// outside loops stays, each loop takes its greedy schedule of tasks over P threads.
+struct LoopRecord {
+  double wall = 0;
+  std::vector<double> tasks;
+};
+void addLoopRecord(LoopRecord record);
+/// The loops profiled since the last resetProfile(), outermost only, in call order.
+std::vector<LoopRecord> loopRecords();
+/// Whether the calling thread is inside a profiled loop (nested loops are part of
+/// their outer loop's task).
+bool& insideProfiledLoop();
+
+/// cv::parallel_for_ over `range`; when profiling, each index runs as its own task,
+/// timed, and the loop is recorded (LoopRecord). Results are the same either way:
+/// every loop of the core computes each index independently of the split.
+template <class Body>
+void parallelFor(const cv::Range& range, const Body& body) {
+  if (!profiling() || insideProfiledLoop()) {
+    cv::parallel_for_(range, body);
+    return;
+  }
+  using Clock = std::chrono::steady_clock;
+  LoopRecord record;
+  record.tasks.assign(size_t(std::max(0, range.end - range.start)), 0.0);
+  const Clock::time_point start = Clock::now();
+  cv::parallel_for_(range, [&](const cv::Range& part) {
+    bool& inside = insideProfiledLoop();
+    const bool outer = inside;
+    inside = true;
+    for (int i = part.start; i < part.end; ++i) {
+      const Clock::time_point t0 = Clock::now();
+      body(cv::Range(i, i + 1));
+      record.tasks[size_t(i - range.start)] =
+          std::chrono::duration<double>(Clock::now() - t0).count();
+    }
+    inside = outer;
+  });
+  record.wall = std::chrono::duration<double>(Clock::now() - start).count();
+  addLoopRecord(std::move(record));
+}
 
 }  // namespace detail
 }  // namespace liff

@@ -17,8 +17,8 @@ per worker process with the worker's thread count (``liff.setNumThreads``) and a
 limit (``setMemoryLimitMB``): MEMORY_SHARE of the worker's, less what the process holds
 once the light field is read (its input array included), so a light field too large for
 the worker is refused (``MemoryError`` in its outcome) or processed in less memory, rather
-than the worker being killed for exceeding its memory. The process keeps memory freed
-by one task for the next (:mod:`liff._allocator`).
+than the worker being killed for exceeding its memory. The detector keeps its working
+memory from one task to the next in the same process (``liff.keptWorkingMemoryBytes``).
 """
 
 from __future__ import annotations
@@ -32,7 +32,6 @@ from contextlib import ExitStack, contextmanager
 from dataclasses import asdict, dataclass, fields
 from typing import TYPE_CHECKING, List, NamedTuple, Optional, Sequence
 
-from . import _allocator
 from .outputs import atomic_output
 
 if TYPE_CHECKING:  # (an optional dependency: pip install "liff[dask]")
@@ -127,19 +126,13 @@ def _memory_hint(error: Exception) -> str:
 def _worker_resources():
     """On a Dask worker, LiFF's threads and memory limit from the worker's for the
     duration of a task (then restored: an in-process worker shares them with its
-    client); yields the worker's address, or '' elsewhere, where only the process's
-    allocator is set to keep freed memory (:mod:`liff._allocator`), as on a worker;
-    memory kept beyond its bound is released after the task."""
+    client); yields the worker's address, or '' elsewhere."""
     try:
         from distributed import get_worker
 
         worker = get_worker()
     except (ImportError, ValueError):  # not on a Dask worker
-        _allocator.reuse_freed_memory()
-        try:
-            yield ""
-        finally:
-            _allocator.release_excess()
+        yield ""
         return
     from . import getNumThreads, setNumThreads
     from .cli import common
@@ -147,7 +140,6 @@ def _worker_resources():
     threads, budget = getNumThreads(), common.memory_budget_bytes
     setNumThreads(worker.state.nthreads)
     limit = worker.memory_manager.memory_limit
-    _allocator.reuse_freed_memory(limit)
     if limit:
         # The detector's limit is what this leaves once the input is read (make_detector).
         common.memory_budget_bytes = int(MEMORY_SHARE * limit)
@@ -156,7 +148,6 @@ def _worker_resources():
     finally:
         setNumThreads(threads)
         common.memory_budget_bytes = budget
-        _allocator.release_excess()
 
 
 def connect(client) -> "distributed.Client":

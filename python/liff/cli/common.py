@@ -241,15 +241,24 @@ def slope_range(parameters: dict, metadata: dict) -> Tuple[dict, str]:
 memory_budget_bytes: Optional[int] = None
 
 
+def held_bytes() -> int:
+    """Memory this process holds that a detection cannot use: its resident size less
+    the working memory LiFF keeps for reuse (``liff.keptWorkingMemoryBytes``, which the
+    next call takes rather than adds to), at least 0."""
+    import psutil  # a dependency of distributed: this runs on Dask workers
+
+    from .._core import keptWorkingMemoryBytes
+
+    return max(0, psutil.Process().memory_info().rss - keptWorkingMemoryBytes())
+
+
 def make_detector(parameters: dict) -> LiFF:
     """A detector with ``parameters``; under a :data:`memory_budget_bytes`, its memory
     limit (setMemoryLimitMB) is what the budget leaves of what the process holds now,
     so a light field read before the detector is made counts against the budget."""
     detector = LiFF.create(**parameters)
     if memory_budget_bytes is not None:
-        from .. import _allocator
-
-        held = _allocator.held_bytes()
+        held = held_bytes()
         if held >= memory_budget_bytes:
             raise MemoryError(f"the process holds {held / 1e6:.0f} MB with the light field "
                               f"read, all of its memory budget of {memory_budget_bytes / 1e6:.0f} "

@@ -99,31 +99,58 @@ def lpt(tasks, threads: int) -> float:
     return max(loads)
 
 
+def profile(detector, lf, batch: int):
+    """One profiled one-thread call with the loops of a ``batch``-thread call (slices
+    built ``batch`` at once): (wall, stage seconds, their part inside loops, loops)."""
+    liff.setNumThreads(1)
+    core._set_slice_batch(batch)
+    try:
+        detector.detectAndCompute(lf, None)  # warm: working memory, caches
+        core._set_profiling(True)
+        core._reset_profile()
+        wall = seconds(lambda: detector.detectAndCompute(lf, None))
+        result = wall, core._stage_seconds(), core._stage_seconds(True), core._parallel_loops()
+    finally:
+        core._set_profiling(False)
+        core._set_slice_batch(0)
+    return result
+
+
 def stage_model(detector, lf) -> None:
     """One-thread stage times, parallel shares and the predicted speed-ups."""
-    liff.setNumThreads(1)
-    detector.detectAndCompute(lf, None)  # warm: working memory, caches
-    core._set_profiling(True)
-    core._reset_profile()
-    wall = seconds(lambda: detector.detectAndCompute(lf, None))
-    stages = core._stage_seconds()
-    in_loops = core._stage_seconds(True)
-    loops = core._parallel_loops()
-    core._set_profiling(False)
-    loop_wall = sum(w for w, _ in loops)
+    wall, stages, in_loops, loops = profile(detector, lf, 1)
+    loop_wall = sum(w for _, w, _ in loops)
     other = wall - sum(stages.values())
     other_in_loops = loop_wall - sum(in_loops.values())
     print(f"\none thread, profiled (each parallel task timed): wall {wall:.3f} s, "
-          f"{len(loops)} parallel loops, {sum(len(t) for _, t in loops)} tasks")
+          f"{len(loops)} parallel loops, {sum(len(t) for *_, t in loops)} tasks")
     print("| stage | one-thread seconds | share of the call | inside parallel loops |\n|---|---|---|---|")
     for name, s in list(stages.items()) + [("other (conversion, survey bookkeeping, sorting)", other)]:
         inside = in_loops.get(name, other_in_loops)
         print(f"| {name} | {s:.3f} | {100 * s / wall:.0f}% | {100 * inside / max(s, 1e-12):.0f}% |")
     serial = wall - loop_wall
     print(f"serial (outside every parallel loop): {serial:.3f} s = {100 * serial / wall:.1f}% of the call")
-    predicted = {p: serial + sum(lpt(tasks, p) for _, tasks in loops) for p in THREADS}
-    print("predicted speed-up (greedy schedule of the measured tasks): " + ", ".join(
-        f"{p} threads {wall / predicted[p]:.1f}x" for p in THREADS[1:]))
+    # A P-thread call builds P slices at once (memory allowing): its loops have more
+    # tasks. Profile that structure on one thread for each P, schedule its tasks on P.
+    speedups = []
+    for p in THREADS[1:]:
+        wall_p, _, _, loops_p = profile(detector, lf, p)
+        serial_p = wall_p - sum(w for _, w, _ in loops_p)
+        predicted = serial_p + sum(lpt(tasks, p) for *_, tasks in loops_p)
+        speedups.append(f"{p} threads {wall_p / predicted:.1f}x")
+        if p == 16:  # where the 16-thread time goes, loop by loop
+            lost = {}
+            for name, _, tasks in loops_p:
+                time_p = lpt(tasks, p)
+                entry = lost.setdefault(name, [0.0, 0.0])
+                entry[0] += time_p
+                entry[1] += sum(tasks) / p
+            breakdown = ", ".join(f"{name} {t:.3f} s (ideal {ideal:.3f})" for name, (t, ideal) in
+                                  sorted(lost.items(), key=lambda kv: -kv[1][0]))
+            breakdown16 = f"serial {serial_p:.3f} s, {breakdown}"
+    print("predicted speed-up over one thread (a P-thread call's tasks, timed on one thread, "
+          "greedily scheduled on P): " + ", ".join(speedups))
+    print(f"predicted 16-thread time by loop (its schedule; all tasks / 16): {breakdown16}")
 
 
 _FRESH = """

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <string>
+#include <vector>
 
 namespace liff {
 namespace python {
@@ -104,30 +105,43 @@ std::vector<cv::KeyPoint> keypointsFromArray(const py::array& rows) {
   return keypoints;
 }
 
-py::array_t<double> keypointsToArray(const std::vector<cv::KeyPoint>& keypoints) {
-  py::array_t<double> out({py::ssize_t(keypoints.size()), py::ssize_t(7)});
-  auto w = out.mutable_unchecked<2>();
+namespace {
+
+// A numpy array over a continuous 2-D Mat's data, which it keeps alive: no copy, and
+// its memory, from the core's allocator, goes back to the core's working memory when
+// the array is freed, so a later call reuses it (working_memory.hpp).
+py::array arrayOver(cv::Mat mat, const py::dtype& dtype) {
+  CV_Assert(mat.dims == 2 && mat.isContinuous());
+  const py::ssize_t rows = mat.rows, cols = mat.cols * mat.channels();
+  auto* owner = new cv::Mat(std::move(mat));
+  py::capsule keep(owner, [](void* p) { delete static_cast<cv::Mat*>(p); });
+  return py::array(dtype, std::vector<py::ssize_t>{rows, cols},
+                   std::vector<py::ssize_t>{py::ssize_t(owner->step[0]),
+                                            py::ssize_t(owner->elemSize1())},
+                   owner->data, keep);
+}
+
+}  // namespace
+
+py::array keypointsToArray(const std::vector<cv::KeyPoint>& keypoints) {
+  if (keypoints.empty()) return py::array_t<double>(std::vector<py::ssize_t>{0, 7});
+  cv::Mat rows(int(keypoints.size()), 7, CV_64F);
   for (size_t i = 0; i < keypoints.size(); ++i) {
     const cv::KeyPoint& k = keypoints[i];
-    const double row[7] = {k.pt.x, k.pt.y, k.size, k.angle, k.response, double(k.octave),
-                           double(k.class_id)};
-    for (int j = 0; j < 7; ++j) w(py::ssize_t(i), j) = row[j];
+    double* row = rows.ptr<double>(int(i));
+    const double values[7] = {k.pt.x, k.pt.y, k.size, k.angle, k.response, double(k.octave),
+                              double(k.class_id)};
+    std::copy(values, values + 7, row);
   }
-  return out;
+  return arrayOver(rows, py::dtype::of<double>());
 }
 
 py::array matToArray(const cv::Mat& mat, int cols) {
-  const py::ssize_t rows = mat.empty() ? 0 : mat.rows;
-  if (mat.empty() || mat.depth() == CV_32F) {
-    py::array_t<float> out({rows, py::ssize_t(cols)});
-    for (py::ssize_t i = 0; i < rows; ++i)
-      std::memcpy(out.mutable_data(i, 0), mat.ptr<float>(int(i)), sizeof(float) * cols);
-    return std::move(out);
-  }
-  py::array_t<uint8_t> out({rows, py::ssize_t(cols)});
-  for (py::ssize_t i = 0; i < rows; ++i)
-    std::memcpy(out.mutable_data(i, 0), mat.ptr<uint8_t>(int(i)), cols);
-  return std::move(out);
+  if (mat.empty()) return py::array_t<float>(std::vector<py::ssize_t>{0, cols});
+  CV_Assert(mat.cols == cols && (mat.depth() == CV_32F || mat.depth() == CV_8U));
+  const cv::Mat continuous = mat.isContinuous() ? mat : mat.clone();
+  return arrayOver(continuous, mat.depth() == CV_32F ? py::dtype::of<float>()
+                                                     : py::dtype::of<uint8_t>());
 }
 
 }  // namespace python

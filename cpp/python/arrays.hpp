@@ -22,11 +22,13 @@ cv::Mat lightFieldMat(const py::array& array);
 /// Raises ValueError.
 cv::Mat maskMat(const py::object& mask);
 
-/// (N, 7) float64 rows x, y, size, angle, response, octave, class_id <-> keypoints.
+/// (N, 7) float64 rows x, y, size, angle, response, octave, class_id <-> keypoints
+/// (the rows array, as matToArray, over memory of the core's).
 std::vector<cv::KeyPoint> keypointsFromArray(const py::array& rows);
-py::array_t<double> keypointsToArray(const std::vector<cv::KeyPoint>& keypoints);
+py::array keypointsToArray(const std::vector<cv::KeyPoint>& keypoints);
 
-/// Copies a 2-D CV_32F or CV_8U Mat with `cols` columns into a new numpy array.
+/// A numpy array over a 2-D CV_32F or CV_8U Mat with `cols` columns, keeping it alive
+/// (no copy; its memory returns to the core's working memory when the array is freed).
 py::array matToArray(const cv::Mat& mat, int cols);
 
 }  // namespace python

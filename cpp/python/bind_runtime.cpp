@@ -64,15 +64,18 @@ void BindProfiling(py::module_& m) {
       "in_loops"_a = false,
       "Benchmarks only: seconds per stage, summed over threads, since the last reset\n"
       "(with in_loops, only the part inside profiled parallel loops).");
+  m.def("_set_slice_batch", &detail::setSliceBatchOverride, "batch"_a,
+        "Benchmarks only: build `batch` slices at once whatever the thread count (0: one\n"
+        "per thread, the default), to profile on one thread the loops of a `batch`-thread call.");
   m.def(
       "_parallel_loops",
       [] {
         py::list loops;
         for (const detail::LoopRecord& loop : detail::loopRecords())
-          loops.append(py::make_tuple(loop.wall, loop.tasks));
+          loops.append(py::make_tuple(loop.name, loop.wall, loop.tasks));
         return loops;
       },
-      "Benchmarks only: (wall seconds, [seconds of each task]) of every outermost parallel\n"
+      "Benchmarks only: (name, wall seconds, [seconds of each task]) of every outermost parallel\n"
       "loop since the last reset, in call order (each index a task while profiling).");
 }
 

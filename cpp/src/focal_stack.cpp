@@ -174,7 +174,7 @@ void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
 
   const float noSample = kNoSampleWeight * (weighted ? lf.maxWeight : 1.f);
   const int tasks = (V + kRowsPerTask - 1) / kRowsPerTask;
-  parallelFor(cv::Range(0, tasks), [&](const cv::Range& range) {
+  parallelFor("focal stack", cv::Range(0, tasks), [&](const cv::Range& range) {
     StageTimer timer(kFocalStack);
     std::vector<float> rows;  // H_kt for the source rows one task needs
     std::vector<cv::Mat> weightSums(weighted ? K : 0);  // sum(w) of this task's rows

@@ -17,6 +17,7 @@
 #include "light_field.hpp"
 #include "memory.hpp"
 #include "pipeline.hpp"
+#include "profile.hpp"
 #include "scale_space.hpp"
 #include "slope_plan.hpp"
 #include "slope_range.hpp"
@@ -55,7 +56,8 @@ constexpr double kBytesPerMB = 1024.0 * 1024.0;
 // not depend on it, so when memory is short the batch shrinks; when even one slice
 // at a time does not fit, fail now, before the large allocations.
 int sliceBatch(const LightField& lf, const detail::MemoryEstimate& need, double limitMB) {
-  int batch = std::max(1, cv::getNumThreads());
+  int batch = std::max(1, detail::sliceBatchOverride() ? detail::sliceBatchOverride()
+                                                       : cv::getNumThreads());
   const bool automatic = limitMB == 0;
   const double limit = automatic ? detail::availableMemoryBytes() : limitMB * kBytesPerMB;
   if (limit <= 0 || std::isinf(limit)) return batch;  // unknown or unlimited

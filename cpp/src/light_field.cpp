@@ -65,7 +65,7 @@ LIFF_HOT_LOOP int firstNonFinite(const float* row, int n) {
 // layout) that is NaN or infinite; views are checked in parallel.
 void checkFinite(const std::vector<cv::Mat>& data, const LightField& lf, const char* what) {
   std::vector<int> badRow(data.size(), -1), badCol(data.size(), -1);
-  parallelFor(cv::Range(0, int(data.size())), [&](const cv::Range& range) {
+  parallelFor("finite check", cv::Range(0, int(data.size())), [&](const cv::Range& range) {
     for (int v = range.start; v < range.end; ++v)
       for (int y = 0; y < lf.V; ++y) {
         const int x = firstNonFinite(data[v].ptr<float>(y), lf.U);
@@ -196,7 +196,7 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
     // Convert view by view, so a colour or integer light field never exists as a
     // whole in float colour.
     const double scale = unitScale(depth);
-    parallelFor(cv::Range(0, views), [&](const cv::Range& range) {
+    parallelFor("conversion", cv::Range(0, views), [&](const cv::Range& range) {
       cv::Mat converted;
       for (int v = range.start; v < range.end; ++v) {
         const cv::Mat src = inputView(input, v / lf.S, v % lf.S);
@@ -245,7 +245,7 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
       lf.weights.clear();  // all samples fully valid: the unweighted focal stack is the same
     } else {
       // Premultiply (views hold w * L) view by view; the views are our own buffers here.
-      parallelFor(cv::Range(0, views), [&](const cv::Range& range) {
+      parallelFor("conversion", cv::Range(0, views), [&](const cv::Range& range) {
         for (int v = range.start; v < range.end; ++v)
           cv::multiply(lf.views[v], lf.weights[v], lf.views[v]);
       });
@@ -266,7 +266,7 @@ LightField decimate(const LightField& lf, int factor) {
     const cv::Mat view = from.rowRange(0, small.V * factor).colRange(0, small.U * factor);
     cv::resize(view, to, to.size(), 0, 0, cv::INTER_AREA);
   };
-  parallelFor(cv::Range(0, int(small.views.size())), [&](const cv::Range& range) {
+  parallelFor("survey decimation", cv::Range(0, int(small.views.size())), [&](const cv::Range& range) {
     for (int v = range.start; v < range.end; ++v) {
       shrink(lf.views[v], small.views[v]);
       if (!lf.weights.empty()) shrink(lf.weights[v], small.weights[v]);

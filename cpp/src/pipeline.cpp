@@ -22,7 +22,7 @@ constexpr int kRowsPerSearchTask = 32;
 // `window`), into rows of `descriptors`, in parallel.
 void describe(const std::vector<cv::KeyPoint>& keypoints, const std::vector<int>& sliceOf,
               const SliceWindow& window, bool rootSift, cv::Mat& descriptors) {
-  parallelFor(cv::Range(0, int(keypoints.size())), [&](const cv::Range& range) {
+  parallelFor("descriptors", cv::Range(0, int(keypoints.size())), [&](const cv::Range& range) {
     StageTimer timer(kDescriptors);
     for (int j = range.start; j < range.end; ++j)
       describeKeypoint(window.at(sliceOf[j]), keypoints[j], rootSift, descriptors.row(j));
@@ -61,7 +61,7 @@ std::vector<std::vector<cv::KeyPoint>> searchSlices(const Call& call, const Slic
     for (const SearchTask& task : searchTasks(window.at(targets[i].slice), kRowsPerSearchTask))
       jobs.push_back({i, task});
   std::vector<std::vector<cv::KeyPoint>> found(jobs.size());
-  parallelFor(cv::Range(0, int(jobs.size())), [&](const cv::Range& range) {
+  parallelFor("extrema search", cv::Range(0, int(jobs.size())), [&](const cv::Range& range) {
     for (int j = range.start; j < range.end; ++j) {
       const Target& target = targets[jobs[j].target];
       SliceNeighbourhood slices;

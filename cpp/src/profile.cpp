@@ -1,5 +1,6 @@
 #include "profile.hpp"
 
+#include <algorithm>
 #include <mutex>
 
 namespace liff {
@@ -10,6 +11,10 @@ std::array<std::atomic<long long>, kStageCount> gNanoseconds{}, gNanosecondsInLo
 std::mutex gLoopMutex;
 std::vector<LoopRecord> gLoops;
 }  // namespace
+
+std::atomic<int> gBatchOverride{0};
+void setSliceBatchOverride(int batch) { gBatchOverride.store(std::max(0, batch)); }
+int sliceBatchOverride() { return gBatchOverride.load(); }
 
 void addLoopRecord(LoopRecord record) {
   std::lock_guard<std::mutex> lock(gLoopMutex);

@@ -45,10 +45,17 @@ class StageTimer {
   std::chrono::steady_clock::time_point start_;
 };
 
+/// Benchmarks only: build `batch` slices at once whatever the thread count (0: one per
+/// thread, the default), so that a one-thread profile has the loops a `batch`-thread
+/// call has (results do not depend on it).
+void setSliceBatchOverride(int batch);
+int sliceBatchOverride();
+
 /// One parallel loop as profiled: its wall time and each index's time, in seconds.
 /// benchmarks/core_speed.py predicts the speed-up at P threads from these: the time
 /// outside loops stays, each loop takes its greedy schedule of tasks over P threads.
 struct LoopRecord {
+  const char* name = "";  // what the loop computes
   double wall = 0;
   std::vector<double> tasks;
 };
@@ -59,17 +66,18 @@ std::vector<LoopRecord> loopRecords();
 /// their outer loop's task).
 bool& insideProfiledLoop();
 
-/// cv::parallel_for_ over `range`; when profiling, each index runs as its own task,
+/// cv::parallel_for_ over `range`, a loop called `name`; when profiling, each index runs as its own task,
 /// timed, and the loop is recorded (LoopRecord). Results are the same either way:
 /// every loop of the core computes each index independently of the split.
 template <class Body>
-void parallelFor(const cv::Range& range, const Body& body) {
+void parallelFor(const char* name, const cv::Range& range, const Body& body) {
   if (!profiling() || insideProfiledLoop()) {
     cv::parallel_for_(range, body);
     return;
   }
   using Clock = std::chrono::steady_clock;
   LoopRecord record;
+  record.name = name;
   record.tasks.assign(size_t(std::max(0, range.end - range.start)), 0.0);
   const Clock::time_point start = Clock::now();
   cv::parallel_for_(range, [&](const cv::Range& part) {

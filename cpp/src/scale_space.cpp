@@ -38,7 +38,7 @@ void forEachStripe(int builds, Rows rows, Step step) {
   for (int b = 0; b < builds; ++b)
     for (int r0 = 0, n = rows(b); r0 < n; r0 += kRowsPerTask)
       tasks.push_back({b, r0, std::min(n, r0 + kRowsPerTask)});
-  parallelFor(cv::Range(0, int(tasks.size())), [&](const cv::Range& range) {
+  parallelFor("scale space", cv::Range(0, int(tasks.size())), [&](const cv::Range& range) {
     StageTimer timer(kScaleSpace);
     for (int t = range.start; t < range.end; ++t) step(tasks[t][0], tasks[t][1], tasks[t][2]);
   });

@@ -126,7 +126,7 @@ std::vector<double> surveyLevel(const LightField& small, int factor, const std::
         unique.back().class_id != kp.class_id)
       unique.push_back(kp);
   std::vector<double> coherence(unique.size());
-  parallelFor(cv::Range(0, int(unique.size())), [&](const cv::Range& range) {
+  parallelFor("survey coherence", cv::Range(0, int(unique.size())), [&](const cv::Range& range) {
     for (int i = range.start; i < range.end; ++i)
       coherence[i] =
           viewCoherence(small, unique[i], keypointSlope(unique[i]), survey.nOctaveLayers);

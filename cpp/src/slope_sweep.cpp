@@ -192,7 +192,7 @@ Votes sweepAll(const cv::Mat& reference, const std::vector<Compared>& views, lon
   const int chunks = std::max(1, std::min(n, kSweepChunks));
   std::vector<Votes> partial;
   for (int c = 0; c < chunks; ++c) partial.emplace_back(reference.size());
-  parallelFor(cv::Range(0, chunks), [&](const cv::Range& range) {
+  parallelFor("survey plane sweep", cv::Range(0, chunks), [&](const cv::Range& range) {
     Scratch scratch;
     for (int c = range.start; c < range.end; ++c)
       for (int k = c * n / chunks; k < (c + 1) * n / chunks; ++k)

@@ -99,31 +99,47 @@ def lpt(tasks, threads: int) -> float:
     return max(loads)
 
 
-def profile(detector, lf, batch: int):
-    """One profiled one-thread call with the loops of a ``batch``-thread call (slices
-    built ``batch`` at once): (wall, stage seconds, their part inside loops, loops)."""
+def profile(detector, lf, batch: int, repeats: int = 3):
+    """Profiled one-thread calls with the loops of a ``batch``-thread call (slices built
+    ``batch`` at once): the fastest call's (wall, stage seconds, their part inside
+    loops, loops); the least time outside loops over the calls; and each loop's tasks,
+    each task's least time over the calls (the calls run the same loops and tasks, and
+    on a shared machine another process preempting a task makes it look long, which
+    would make its loop look unbalanced)."""
     liff.setNumThreads(1)
     core._set_slice_batch(batch)
+    runs = []
     try:
         detector.detectAndCompute(lf, None)  # warm: working memory, caches
-        core._set_profiling(True)
-        core._reset_profile()
-        wall = seconds(lambda: detector.detectAndCompute(lf, None))
-        result = wall, core._stage_seconds(), core._stage_seconds(True), core._parallel_loops()
+        for _ in range(repeats):
+            core._set_profiling(True)
+            core._reset_profile()
+            wall = seconds(lambda: detector.detectAndCompute(lf, None))
+            runs.append((wall, core._stage_seconds(), core._stage_seconds(True),
+                         core._parallel_loops()))
+            core._set_profiling(False)
     finally:
         core._set_profiling(False)
         core._set_slice_batch(0)
-    return result
+    if len({tuple((n, len(t)) for n, _, t in r[3]) for r in runs}) != 1:
+        raise RuntimeError("profiled calls ran different loops")
+    loops = [(name, [min(r[3][i][2][j] for r in runs) for j in range(len(tasks))])
+             for i, (name, _, tasks) in enumerate(runs[0][3])]
+    # Time outside every loop, the least over the calls; the model's one-thread time is
+    # that and every task's least time.
+    serial = min(r[0] - sum(w for _, w, _ in r[3]) for r in runs)
+    fastest = min(runs, key=lambda r: r[0])
+    return fastest, serial, loops
 
 
 def stage_model(detector, lf) -> None:
     """One-thread stage times, parallel shares and the predicted speed-ups."""
-    wall, stages, in_loops, loops = profile(detector, lf, 1)
+    (wall, stages, in_loops, loops), _, _ = profile(detector, lf, 1)
     loop_wall = sum(w for _, w, _ in loops)
     other = wall - sum(stages.values())
     other_in_loops = loop_wall - sum(in_loops.values())
-    print(f"\none thread, profiled (each parallel task timed): wall {wall:.3f} s, "
-          f"{len(loops)} parallel loops, {sum(len(t) for *_, t in loops)} tasks")
+    print(f"\none thread, profiled (each parallel task timed; fastest of 3 calls): wall "
+          f"{wall:.3f} s, {len(loops)} parallel loops, {sum(len(t) for *_, t in loops)} tasks")
     print("| stage | one-thread seconds | share of the call | inside parallel loops |\n|---|---|---|---|")
     for name, s in list(stages.items()) + [("other (conversion, survey bookkeeping, sorting)", other)]:
         inside = in_loops.get(name, other_in_loops)
@@ -132,25 +148,24 @@ def stage_model(detector, lf) -> None:
     print(f"serial (outside every parallel loop): {serial:.3f} s = {100 * serial / wall:.1f}% of the call")
     # A P-thread call builds P slices at once (memory allowing): its loops have more
     # tasks. Profile that structure on one thread for each P, schedule its tasks on P.
-    speedups = []
+    speedups, where = [], ""
     for p in THREADS[1:]:
-        wall_p, _, _, loops_p = profile(detector, lf, p)
-        serial_p = wall_p - sum(w for _, w, _ in loops_p)
-        predicted = serial_p + sum(lpt(tasks, p) for *_, tasks in loops_p)
-        speedups.append(f"{p} threads {wall_p / predicted:.1f}x")
+        _, serial_p, loops_p = profile(detector, lf, p)
+        one = serial_p + sum(sum(tasks) for _, tasks in loops_p)
+        predicted = serial_p + sum(lpt(tasks, p) for _, tasks in loops_p)
+        speedups.append(f"{p} threads {one / predicted:.1f}x")
         if p == 16:  # where the 16-thread time goes, loop by loop
-            lost = {}
-            for name, _, tasks in loops_p:
-                time_p = lpt(tasks, p)
-                entry = lost.setdefault(name, [0.0, 0.0])
-                entry[0] += time_p
+            by_name = {}
+            for name, tasks in loops_p:
+                entry = by_name.setdefault(name, [0.0, 0.0])
+                entry[0] += lpt(tasks, p)
                 entry[1] += sum(tasks) / p
-            breakdown = ", ".join(f"{name} {t:.3f} s (ideal {ideal:.3f})" for name, (t, ideal) in
-                                  sorted(lost.items(), key=lambda kv: -kv[1][0]))
-            breakdown16 = f"serial {serial_p:.3f} s, {breakdown}"
+            where = f"serial {serial_p:.3f} s, " + ", ".join(
+                f"{name} {t:.3f} s (ideal {ideal:.3f})"
+                for name, (t, ideal) in sorted(by_name.items(), key=lambda kv: -kv[1][0]))
     print("predicted speed-up over one thread (a P-thread call's tasks, timed on one thread, "
           "greedily scheduled on P): " + ", ".join(speedups))
-    print(f"predicted 16-thread time by loop (its schedule; all tasks / 16): {breakdown16}")
+    print(f"predicted 16-thread time by loop (its schedule; all its tasks / 16): {where}")
 
 
 _FRESH = """
@@ -202,7 +217,9 @@ def main(argv=None) -> int:
     sift = cv2.SIFT.create()
     for name, lf in scenes(args.quick).items():
         view = centre_view(lf)
-        default, first0 = liff.LiFF.create(), liff.LiFF.create(firstOctave=0)
+        has_first_octave = any(p.name == "firstOctave" for p in liff.PARAMETERS)
+        default = liff.LiFF.create()
+        first0 = liff.LiFF.create(firstOctave=0) if has_first_octave else default
         print(f"\n## {name}")
         liff.setNumThreads(1)
         cv2.setNumThreads(1)
@@ -227,7 +244,8 @@ def main(argv=None) -> int:
         t2 = interleaved(rounds, one=threads(1), two=threads(2))
         print(f"two threads against one: {median_ratio(t2['one'], t2['two']):.2f}x "
               f"(medians {statistics.median(t2['one']):.3f} and {statistics.median(t2['two']):.3f} s)")
-        stage_model(default, lf)
+        if hasattr(core, "_parallel_loops"):
+            stage_model(default, lf)
         liff.setNumThreads(1)
         views = [centre_view(lf[i:i + 1, j:j + 1]) for i in range(lf.shape[0])
                  for j in range(lf.shape[1])]

@@ -11,7 +11,7 @@ namespace detail {
 namespace {
 
 // Rows of the slice one parallel task renders; fixed, so results never depend on threads.
-constexpr int kRowsPerTask = 16;
+constexpr int kRowsPerTask = 8;
 
 // A pixel whose summed tap weight is at most this (relative to one full-weight sample)
 // has no valid sample: it is set to 0 rather than divided by almost nothing.

@@ -325,3 +325,15 @@ def test_docstring_examples_run():
 
     result = doctest.testmod(_detector, optionflags=doctest.NORMALIZE_WHITESPACE)
     assert result.attempted >= 5 and result.failed == 0
+
+
+def test_readme_states_create_with_the_tables_defaults():
+    """README, "Parameters": its create() signature is liff.PARAMETERS's, in order."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    match = re.search(r"`liff\.LiFF\.create\((.*?)\)`", text, re.S)
+    assert match, "README has no `liff.LiFF.create(...)` signature"
+    written = [part.split("=")[0].strip() for part in " ".join(match.group(1).split()).split(",")]
+    assert written == [p.name for p in liff.PARAMETERS]

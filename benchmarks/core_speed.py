@@ -170,10 +170,9 @@ def stage_model(detector, lf) -> None:
 
 _FRESH = """
 import json, resource, sys, threading
-sys.path.insert(0, sys.argv[1])
+import numpy as np
 import liff
-from lightfields import ILLUM_SHAPE, layered_light_field
-lf = layered_light_field(ILLUM_SHAPE)
+lf = np.load(sys.argv[1])
 liff.setNumThreads(1)
 out = {}
 def faults():
@@ -192,17 +191,22 @@ print(json.dumps(out))
 
 
 def fresh_process_memory() -> None:
-    here = os.path.dirname(os.path.abspath(__file__))
+    import tempfile
+
     print("\nfresh process, one thread, a default Illum-size detection in a worker thread "
-          "(twice):")
-    for name, env in (("glibc defaults", {}), ("Dask nanny, MALLOC_TRIM_THRESHOLD_=65536",
-                                               {"MALLOC_TRIM_THRESHOLD_": "65536"})):
-        out = subprocess.run([sys.executable, "-c", _FRESH, here], capture_output=True,
-                             text=True, check=True, env=dict(os.environ, **env))
-        r = json.loads(out.stdout.strip().splitlines()[-1])
-        print(f"  {name}: peak memory added by the first call {r['peak_added_mb']:.0f} MB; "
-              f"page faults first {r['first']}, second {r['second']} "
-              f"({100 * r['second'] / max(r['first'], 1):.2f}% of the first)")
+          "(twice), the light field loaded from a .npy:")
+    with tempfile.TemporaryDirectory() as folder:
+        path = os.path.join(folder, "illum.npy")
+        np.save(path, layered_light_field(ILLUM_SHAPE))
+        for name, env in (("glibc defaults", {}),
+                          ("Dask nanny, MALLOC_TRIM_THRESHOLD_=65536",
+                           {"MALLOC_TRIM_THRESHOLD_": "65536"})):
+            out = subprocess.run([sys.executable, "-c", _FRESH, path], capture_output=True,
+                                 text=True, check=True, env=dict(os.environ, **env))
+            r = json.loads(out.stdout.strip().splitlines()[-1])
+            print(f"  {name}: peak memory the first call adds to the process "
+                  f"{r['peak_added_mb']:.0f} MB; page faults first {r['first']}, second "
+                  f"{r['second']} ({100 * r['second'] / max(r['first'], 1):.2f}% of the first)")
 
 
 def main(argv=None) -> int:

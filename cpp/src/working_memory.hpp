@@ -20,8 +20,9 @@ constexpr size_t kKeptBufferMinBytes = 4096;
 /// so keeping them all takes more than the peak of any one moment (1.3x on the
 /// Illum-size scene).
 constexpr double kKeptPeakShare = 2.0;
-/// A kept buffer serves a request of at least this share of its size.
-constexpr double kKeptBufferMinFill = 1.0;
+/// A kept buffer serves a request of at least this share of its size (best fit): calls
+/// ask for the same sizes again, and a larger one would sit idle beside a new buffer.
+constexpr double kKeptBufferMinFill = 0.5;
 
 /// Called at the start of each call: makes the reusing allocator the system OpenCV's
 /// default for Mats (the first time, unless reuse was turned off) and counts the call

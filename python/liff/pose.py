@@ -272,12 +272,13 @@ def _leverage(pose_blocks: np.ndarray, point_blocks: np.ndarray) -> np.ndarray:
     columns with the points' part projected out, the Schur complement). With few
     matches the pose absorbs a good part of the residuals; leaving it out makes the
     fitted noise shrink round after round."""
-    inverse = np.linalg.pinv(np.einsum("nri,nrj->nij", point_blocks, point_blocks))
-    reduced = pose_blocks - np.einsum("nri,nij,nsj,nsk->nrk", point_blocks, inverse, point_blocks,
-                                      pose_blocks)
-    schur = np.einsum("nri,nrj->ij", reduced, reduced)
-    return (np.einsum("nri,nij,nrj->nr", point_blocks, inverse, point_blocks)
-            + np.einsum("nri,ij,nrj->nr", reduced, np.linalg.pinv(schur), reduced))
+    Bt = np.swapaxes(point_blocks, 1, 2)
+    BI = point_blocks @ np.linalg.pinv(Bt @ point_blocks)  # (n, 6, 3): B (B^T B)^+
+    reduced = pose_blocks - BI @ (Bt @ pose_blocks)
+    flat = reduced.reshape(-1, reduced.shape[2])
+    schur = flat.T @ flat
+    return (np.einsum("nri,nri->nr", BI, point_blocks)
+            + np.einsum("nri,nri->nr", reduced @ np.linalg.pinv(schur), reduced))
 
 
 def _pose_covariance(pose_blocks: np.ndarray, point_blocks: np.ndarray) -> np.ndarray:

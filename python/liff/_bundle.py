@@ -97,7 +97,10 @@ def solve(problem, params0: np.ndarray, loss: str = "linear", f_scale: float = 3
         rg = r * gradient_weight
         gp = A.reshape(-1, 6).T @ rg.ravel()
         gi = np.einsum("nri,nr->ni", B, rg)
-        dU, dV = np.diag(U).copy(), np.einsum("nii->ni", V).copy()
+        # Marquardt's scaling from the unweighted Jacobian: a point whose residuals all lie
+        # in the loss's flat tail has almost no weighted curvature, and damping scaled by
+        # that would let it jump arbitrarily far
+        dU, dV = np.einsum("nri,nri->i", A, A), np.einsum("nri,nri->ni", B, B)
         done = False
         while evaluations < max_evaluations:
             Vi = _inverse3(V + (damping * np.maximum(dV, 1e-300))[:, :, None] * np.eye(3))

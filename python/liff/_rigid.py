@@ -285,6 +285,26 @@ class TransferScorer:
         return cost, inliers
 
     # --- local optimisation ---------------------------------------------------------------
+    def error_and_pose_jacobian(self, R, t, h, i) -> Tuple[np.ndarray, np.ndarray]:
+        """For the pairs (hypothesis h, match i): capture 2's observation less the
+        prediction, e (m, 3: pixels, pixels, pixels per view step), and its Jacobian on a
+        pose update (m, 3, 6), columns (dtheta, dt) with ``R <- exp([dtheta]_x) R`` and
+        ``t <- t + dt``: ``dp / d dtheta = -[R d]_x``, ``dp / dt = w I``, ``de / dp = -G``
+        with G the projection's Jacobian. Where the point is not in front of capture 2:
+        e = 1e6 and no gradient (far off, as SciPy's least_squares saw it before)."""
+        p = self._p(R, t, h, i)
+        front = p[:, 2] > MIN_DEPTH
+        _, _, G, e = self._jacobian_and_error(R, t, h, i, np.where(front[:, None], p, 1.0), True)
+        rd = np.einsum("mij,mj->mi", R[h], self.D[i])
+        w = self.w[i]
+        dp = np.zeros((len(h), 3, 6))
+        dp[:, 0, 1], dp[:, 0, 2] = rd[:, 2], -rd[:, 1]  # -[R d]_x
+        dp[:, 1, 0], dp[:, 1, 2] = -rd[:, 2], rd[:, 0]
+        dp[:, 2, 0], dp[:, 2, 1] = rd[:, 1], -rd[:, 0]
+        dp[:, 0, 3] = dp[:, 1, 4] = dp[:, 2, 5] = w
+        Jm = -(G @ dp)
+        return (np.where(front[:, None], e, _BEHIND), np.where(front[:, None, None], Jm, 0.0))
+
     def fit(self, R: np.ndarray, t: np.ndarray, chosen: np.ndarray, iterations: int = 10
             ) -> Tuple[np.ndarray, np.ndarray]:
         """Poses minimising the chosen matches' squared transfer distances, covariances held
@@ -307,9 +327,8 @@ class TransferScorer:
         Notes
         -----
         Cost ``sum_i e_i^T C_i^-1 e_i``, e_i capture 2's observation less the prediction,
-        C_i its covariance at the start pose. Rotation updates ``R <- exp([dtheta]_x) R``,
-        so ``dp / d dtheta = -[R d]_x`` and ``dp / dt = w I``; ``de / dp = -G`` with G the
-        projection's Jacobian (:meth:`_jacobian_and_error`).
+        C_i its covariance at the start pose; the analytic Jacobian of
+        :meth:`error_and_pose_jacobian`.
         """
         R, t = np.array(R, np.float64), np.array(t, np.float64)
         h, i = np.nonzero(chosen)
@@ -324,32 +343,19 @@ class TransferScorer:
         bad = np.bincount(h, weights=~np.isfinite(info).all(axis=(1, 2)), minlength=H) > 0
         keep = ~bad[h]
         h, i, info = h[keep], i[keep], info[keep]
-        w, Dm = self.w[i], self.D[i]
         starts = np.flatnonzero(np.r_[True, h[1:] != h[:-1]]) if len(h) else np.zeros(0, int)
         groups = h[starts]
 
         def residual(R, t):
-            p = self._p(R, t, h, i)
-            front = p[:, 2] > MIN_DEPTH
-            _, _, G, e = self._jacobian_and_error(R, t, h, i, np.where(front[:, None], p, 1.0), True)
-            e = np.where(front[:, None], e, _BEHIND)
-            G = np.where(front[:, None, None], G, 0.0)
-            cost = np.bincount(h, weights=np.einsum("mi,mij,mj->m", e, info, e), minlength=H)
-            return e, G, cost
+            e, Jm = self.error_and_pose_jacobian(R, t, h, i)
+            return e, Jm, np.bincount(h, weights=np.einsum("mi,mij,mj->m", e, info, e), minlength=H)
 
-        e, G, cost = residual(R, t)
+        e, Jm, cost = residual(R, t)
         damping = np.full(H, 1e-6)
         active = ~bad & (np.bincount(h, minlength=H) > 0)
         for _ in range(iterations):
             if not active.any():
                 break
-            rd = np.einsum("mij,mj->mi", R[h], Dm)
-            dp = np.zeros((len(h), 3, 6))
-            dp[:, 0, 1], dp[:, 0, 2] = rd[:, 2], -rd[:, 1]  # -[R d]_x
-            dp[:, 1, 0], dp[:, 1, 2] = -rd[:, 2], rd[:, 0]
-            dp[:, 2, 0], dp[:, 2, 1] = rd[:, 1], -rd[:, 0]
-            dp[:, 0, 3] = dp[:, 1, 4] = dp[:, 2, 5] = w
-            Jm = -(G @ dp)  # (m, 3, 6): de / d(dtheta, dt)
             JtI = np.swapaxes(Jm, 1, 2) @ info
             normal, gradient = np.zeros((H, 6, 6)), np.zeros((H, 6))
             normal[groups] = np.add.reduceat(JtI @ Jm, starts, axis=0)  # h is sorted
@@ -361,11 +367,11 @@ class TransferScorer:
             step[~active] = 0.0
             R_new = rotations(step[:, :3]) @ R
             t_new = t + step[:, 3:]
-            e_new, G_new, cost_new = residual(R_new, t_new)
+            e_new, J_new, cost_new = residual(R_new, t_new)
             better = active & (cost_new < cost)
             R[better], t[better] = R_new[better], t_new[better]
             moved = better[h]
-            e[moved], G[moved] = e_new[moved], G_new[moved]
+            e[moved], Jm[moved] = e_new[moved], J_new[moved]
             small = np.abs(cost - cost_new) <= 1e-8 * np.maximum(cost, 1e-300)
             tiny = np.linalg.norm(step, axis=1) <= 1e-8 * (1.0 + np.linalg.norm(t, axis=1))
             cost = np.where(better, cost_new, cost)

@@ -632,6 +632,36 @@ def test_match_by_pose_writes_verified_geometries(pose_capture, tmp_path):
         colmap.match_by_pose(database, images, camera, seed=-1)
 
 
+def test_match_by_pose_on_workers_equals_serial(pose_capture, tmp_path):
+    import pycolmap
+
+    from liff import colmap
+
+    capture, features = pose_capture
+    results, stored = [], []
+    for workers in (1, 2):
+        camera, images, database = pose_database(capture, features, tmp_path / f"w{workers}")
+        done = []
+        poses = colmap.match_by_pose(database, images, camera, workers=workers,
+                                     progress=lambda: done.append(1))
+        assert len(done) == 3  # one call per pair
+        results.append(poses)
+        with pycolmap.Database.open(str(database)) as db:
+            ids = {im.name: im.image_id for im in db.read_all_images()}
+            stored.append({pair: np.asarray(db.read_two_view_geometry(ids[pair[0]], ids[pair[1]]).inlier_matches)
+                           for pair in poses})
+    assert results[0].keys() == results[1].keys()
+    for pair, serial in results[0].items():
+        parallel = results[1][pair]
+        assert np.array_equal(serial.rotation, parallel.rotation)
+        assert np.array_equal(serial.translation, parallel.translation)
+        assert np.array_equal(serial.covariance, parallel.covariance)
+        assert serial.inliers == parallel.inliers >= 50
+        assert np.array_equal(stored[0][pair], stored[1][pair])
+    with pytest.raises(ValueError, match="workers = 0; expected a positive integer"):
+        colmap.match_by_pose(database, images, camera, workers=0)
+
+
 def write_hci_scene(folder, light_field, camera, width=None):
     """An HCI-style scene folder (input_CamNNN.png, parameters.cfg) of a grey light field
     in [0, 1], its parameters.cfg describing ``camera`` (principal point at the centre)."""

@@ -305,7 +305,7 @@ class TransferScorer:
         Jm = -(G @ dp)
         return (np.where(front[:, None], e, _BEHIND), np.where(front[:, None, None], Jm, 0.0))
 
-    def fit(self, R: np.ndarray, t: np.ndarray, chosen: np.ndarray, iterations: int = 10
+    def fit(self, R: np.ndarray, t: np.ndarray, chosen: np.ndarray, iterations: int = 4
             ) -> Tuple[np.ndarray, np.ndarray]:
         """Poses minimising the chosen matches' squared transfer distances, covariances held
         at the start poses (each pose's own), by Gauss-Newton with Levenberg damping.

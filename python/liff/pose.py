@@ -522,10 +522,11 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
     (3 degrees of freedom; MSAC). A 3-D threshold cannot do this: a far point's depth
     is Z^2 / (f b) times its slope noise, so a threshold in metres either rejects the
     far half of a scene's right matches or admits gross errors near the camera. The
-    best hypothesis is then re-fitted to its inliers (3-D points weighted by the
-    inverse of their depth variance, ~Z^-4) while its score improves (local
-    optimisation). Sampling stops when ``confidence`` that an all-inlier sample was
-    drawn is reached, or at ``max_hypotheses``.
+    best 16 hypotheses are then re-fitted to their inliers (Gauss-Newton on those
+    distances, analytic Jacobian) while their scores improve (local optimisation).
+    Sampling stops when ``confidence`` that an all-inlier sample was drawn is reached,
+    or at ``max_hypotheses``. Sampling, fitting (Kabsch on 3 points) and scoring are
+    vectorised over a batch of 256 hypotheses (:mod:`liff._rigid`).
 
     Parameters
     ----------
@@ -552,9 +553,9 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
         For a seed outside [0, 2**31).
     PoseEstimationError
         If no hypothesis has at least 3 inliers, or the best has fewer than 1.5 times the
-        inliers that the same search finds on the matches re-paired at random
-        (``RANSAC_CHANCE_TRIALS`` re-pairings): when every match is wrong, some motion
-        still agrees with a few of them.
+        inliers that the same search, with as many hypotheses, finds on the matches
+        re-paired at random (``RANSAC_CHANCE_TRIALS`` re-pairings): when every match is
+        wrong, some motion still agrees with a few of them.
     """
     _check_seed(seed)
     obs1, obs2 = np.asarray(obs1, np.float64), np.asarray(obs2, np.float64)
@@ -566,19 +567,20 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
         raise PoseEstimationError(f"{len(usable)} matches with a depth in both captures; expected "
                                   f"at least {MIN_MATCHES}")
 
-    best = _msac(obs1, obs2, X1, X2, usable, s, camera1, camera2, seeds, np.random.default_rng(seed),
-                 confidence, max_hypotheses)
+    best, drawn = _msac(obs1, obs2, X1, X2, usable, s, camera1, camera2, seeds,
+                        np.random.default_rng(seed), confidence, max_hypotheses)
     if best is None or best[2].sum() < MIN_MATCHES:
         raise PoseEstimationError(f"RANSAC found no rigid motion among {n} matches")
     # Significance: the same search on capture 2's features re-paired at random, which
     # share no motion with capture 1's, must find far fewer inliers; else the "best"
-    # motion is one that any set of matches this size offers (all matches wrong).
+    # motion is one that any set of matches this size offers (all matches wrong). It
+    # draws as many hypotheses as the search above did (the best of as many tries).
     rng = np.random.default_rng(seed + 1)
     chance = 0
     for _ in range(RANSAC_CHANCE_TRIALS):
         order = rng.permutation(n)
-        found = _msac(obs1, obs2[order], X1, X2[order], usable[np.isfinite(X2[order][usable]).all(axis=1)],
-                      s, camera1, camera2, (), rng, confidence, max_hypotheses)
+        found, _ = _msac(obs1, obs2[order], X1, X2[order], usable[np.isfinite(X2[order][usable]).all(axis=1)],
+                         s, camera1, camera2, (), rng, confidence, max(drawn, RANSAC_BATCH))
         chance = max(chance, 0 if found is None else int(found[2].sum()))
     k = int(best[2].sum())
     if k < RANSAC_CHANCE_FACTOR * chance:
@@ -590,11 +592,12 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
 
 
 def _msac(obs1, obs2, X1, X2, usable, s, camera1, camera2, seeds, rng, confidence, max_hypotheses):
-    """:func:`observation_ransac`'s search: (R, t, inliers) of the best hypothesis after
-    local optimisation, or None. Hypotheses are drawn, fitted (:func:`_rigid_fits`) and
-    scored (:class:`liff._rigid.TransferScorer`) a batch at a time in array operations."""
+    """:func:`observation_ransac`'s search: ((R, t, inliers) of the best hypothesis after
+    local optimisation, or None; the number of hypotheses drawn). Hypotheses are drawn,
+    fitted (:func:`_rigid_fits`) and scored (:class:`liff._rigid.TransferScorer`) a batch
+    at a time in array operations."""
     if len(usable) < MIN_MATCHES:
-        return None
+        return None, 0
     scorer = TransferScorer(obs1, obs2, s, s, camera1, camera2, CHI2_INLIER)
     pool_cost, pool_R, pool_t = np.zeros(0), np.zeros((0, 3, 3)), np.zeros((0, 3))
     best_share, drawn, needed = 0.0, 0, max_hypotheses
@@ -638,9 +641,9 @@ def _msac(obs1, obs2, X1, X2, usable, s, camera1, camera2, seeds, rng, confidenc
         R[index], t[index], cost[index], inliers[index] = R2[better], t2[better], cost2[better], inliers2[better]
         active[np.flatnonzero(active)[~better]] = False
     if not len(cost):
-        return None
+        return None, drawn
     b = int(np.argmin(cost))
-    return R[b], t[b], inliers[b]
+    return (R[b], t[b], inliers[b]), drawn
 
 
 def guided_matches(obs1: np.ndarray, descriptors1: np.ndarray, obs2: np.ndarray,

@@ -567,6 +567,18 @@ def test_cli_sfm_says_what_to_try_when_the_default_mapper_makes_no_model(pose_fi
     assert "model 0 in metres from 1 pair pose (pose graph)" in capsys.readouterr().out
 
 
+def test_cli_sfm_counts_the_pairs_matched_on_workers(pose_files, tmp_path, capsys, monkeypatch):
+    # Matching by pose is the step a user waits on: a bar counts its pairs, and --workers
+    # spreads them over processes.
+    monkeypatch.setenv("LIFF_PROGRESS", "1")
+    capture, paths = pose_files
+    assert main(["sfm", *paths, "--workspace", str(tmp_path / "ws"), "--workers", "2",
+                 *camera_options(camera_of(capture)), *detector_options()]) == 0
+    captured = capsys.readouterr()
+    assert "liff sfm: pairs matched" in captured.err and "3/3" in captured.err
+    assert "matched by metric pose: 3 of 3 pairs" in captured.out
+
+
 def test_cli_sfm_warns_when_the_slopes_do_not_fit_the_camera(pose_files, tmp_path, capsys):
     # A baseline 10x off still gives poses and a model, consistent with that wrong camera;
     # only the slopes' residuals (3.5 px per view where a right camera gives ~0.01) say so.

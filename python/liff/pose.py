@@ -692,8 +692,9 @@ def guided_matches(obs1: np.ndarray, descriptors1: np.ndarray, obs2: np.ndarray,
     # bounded by its largest eigenvalue), then the exact distance of those.
     valid = np.isfinite(pred).all(axis=1)
     largest = np.where(valid, np.linalg.eigvalsh(np.where(valid[:, None, None], cov1, 0)[:, :2, :2])[:, -1], 0)
-    xy = np.square(obs2[None, :, :2] - pred[:, None, :2]).sum(axis=2)  # (n1, n2)
-    i, j = np.nonzero(valid[:, None] & (xy < CHI2_INLIER * (largest[:, None] + noise2[None, :, 0])))
+    p1 = np.where(valid[:, None], pred[:, :2], np.inf)
+    dx, dy = obs2[None, :, 0] - p1[:, None, 0], obs2[None, :, 1] - p1[:, None, 1]  # (n1, n2)
+    i, j = np.nonzero(dx * dx + dy * dy < CHI2_INLIER * (largest[:, None] + noise2[None, :, 0]))
     diff = obs2[j] - pred[i]
     cov = cov1[i] + noise2[j][:, :, None] * np.eye(3)
     distance = np.einsum("nj,nj->n", diff, np.linalg.solve(cov, diff[:, :, None])[:, :, 0])

@@ -17,11 +17,13 @@ baseline 0.0409 m, principal point (159.5, 119.5), focus distance 5.09 m).
    database step alone, same detector and workers), both fresh processes; and the
    sfm's own "matching every pair ... done in" time.
 4. Growth with the number of captures: match_by_pose's total for N = each of --scaling
-   (all N (N - 1) / 2 pairs), per pair, and the time per pair against the pair's
-   putative matches; extrapolated to N = 100 (4950 pairs).
+   (all N (N - 1) / 2 pairs) and per pair; extrapolated to N = 100 (4950 pairs).
+5. Growth with the number of features: the pairs of the first 3 captures with each
+   capture's features cut to the K strongest (``liff detect --nfeatures K``) for each K
+   of --features.
 
 Usage:  python benchmarks/pose_speed.py [--poses N] [--workers W ...] [--scaling N ...]
-        [--repeats R] [--quick]
+        [--features K ...] [--repeats R] [--quick]
 """
 
 from __future__ import annotations
@@ -57,13 +59,15 @@ def liff_cli(*args, env=None) -> float:
     return seconds
 
 
-def make_poses(folder: str, n: int) -> tuple:
-    """(light field paths, feature file paths, truth) of ``liff synth poses`` at n poses."""
+def make_poses(folder: str, n: int, nfeatures: int = 0) -> tuple:
+    """(light field paths, feature file paths, truth) of ``liff synth poses`` at n poses,
+    features cut to the ``nfeatures`` strongest (0: all)."""
     poses = os.path.join(folder, f"poses{n}")
-    feats = os.path.join(folder, f"feats{n}")
-    if not os.path.exists(feats):  # made once per n
+    feats = os.path.join(folder, f"feats{n}-{nfeatures}")
+    if not os.path.exists(poses):
         liff_cli("synth", "poses", "--out", poses, "--poses", str(n))
-        liff_cli("detect", poses, "--out", feats)
+    if not os.path.exists(feats):  # made once per n and nfeatures
+        liff_cli("detect", poses, "--out", feats, "--nfeatures", str(nfeatures))
     names = sorted(f[:-4] for f in os.listdir(poses) if f.endswith(".npz"))
     with open(poses + ".truth.json", encoding="utf-8") as f:
         truth = {p["name"]: (np.array(p["rotation"]), np.array(p["translation"])) for p in json.load(f)["poses"]}
@@ -154,11 +158,14 @@ def main() -> int:
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2], help="liff sfm --workers runs")
     parser.add_argument("--scaling", type=int, nargs="*", default=[3, 5, 8],
                         help="capture counts for the growth table (none: skip)")
+    parser.add_argument("--features", type=int, nargs="*", default=[150, 300, 600],
+                        help="features kept per capture for the feature-growth table (none: skip)")
     parser.add_argument("--repeats", type=int, default=3, help="timings per measurement (best or median)")
-    parser.add_argument("--quick", action="store_true", help="--workers 1 --scaling 3 5 --repeats 1")
+    parser.add_argument("--quick", action="store_true",
+                        help="--workers 1 --scaling 3 5 --features 300 --repeats 1")
     args = parser.parse_args()
     if args.quick:
-        args.workers, args.scaling, args.repeats = [1], [3, 5], 1
+        args.workers, args.scaling, args.features, args.repeats = [1], [3, 5], [300], 1
     print(f"# python benchmarks/pose_speed.py {' '.join(sys.argv[1:])}; liff from "
           f"{os.path.dirname(liff.__file__)}, {os.cpu_count()} CPUs, "
           f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}")
@@ -202,6 +209,16 @@ def main() -> int:
             print(f"\nN = 100: 4950 pairs, every one matched (exhaustive), ~{4950 * mean / 60:.0f} min on one "
                   f"process at {mean:.3f} s per pair, ~{4950 * mean / 60 / max(os.cpu_count() or 1, 1):.0f} "
                   f"min on {os.cpu_count()} workers")
+        if args.features:
+            print("\n## 5. Growth with the number of features (pairs of the first 3 captures)\n")
+            print("| features kept | features (mean) | putative (mean) | wall s per pair (median) | CPU s |")
+            print("|---|---|---|---|---|")
+            for k in args.features + [0]:
+                _, feature_paths, truth = make_poses(folder, 3, k)
+                counts = [len(load_features(p).keypoints) for p in feature_paths]
+                rows = pair_timings(feature_paths, truth, args.repeats)
+                print(f"| {k or 'all'} | {np.mean(counts):.0f} | {rows[:, 2].mean():.0f} | "
+                      f"{np.median(rows[:, 0]):.3f} | {np.median(rows[:, 1]):.3f} |")
     return 0
 
 

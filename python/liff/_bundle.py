@@ -54,8 +54,12 @@ def _loss(z: np.ndarray, loss: str, f_scale: float):
 
 
 def _inverse3(M: np.ndarray) -> np.ndarray:
-    """Inverses of (n, 3, 3) symmetric positive definite matrices."""
-    return np.linalg.inv(M)
+    """Inverses of (n, 3, 3) symmetric positive definite matrices (the adjugate over the
+    determinant; a point's normal matrix is at least its capture-1 observation's
+    information, so it is never near singular)."""
+    from ._rigid import _information
+
+    return _information(M)
 
 
 def solve(problem, params0: np.ndarray, loss: str = "linear", f_scale: float = 3.0,

@@ -412,69 +412,6 @@ class PairPose:
                                max(float(sigma_t), MIN_SIGMA_TRANSLATION), self.inliers)
 
 
-def _pair_pose(first, second, camera, ratio: float, seed: int):
-    """One pair's (R, t, inlier index pairs (k, 2) uint32, covariance), or None where
-    :func:`liff.estimate_relative_pose` finds no pose. ``first`` and ``second`` are
-    (keypoint rows, descriptors): arrays, which worker processes can receive."""
-    from .keypoint_rows import rows_to_keypoints
-    from .pose import PoseEstimationError, estimate_relative_pose
-
-    try:
-        R, t, matches, details = estimate_relative_pose(
-            rows_to_keypoints(first[0]), first[1], rows_to_keypoints(second[0]), second[1],
-            camera, ratio=ratio, seed=seed, return_details=True)
-    except PoseEstimationError:
-        return None
-    pairs = np.array([(m.queryIdx, m.trainIdx) for m in matches], np.uint32).reshape(-1, 2)
-    return R, t, pairs, details.covariance
-
-
-#: a worker process's images for :func:`_worker_pair_pose` (set by its initializer)
-_WORKER_IMAGES: list = []
-
-
-def _init_pair_worker(images) -> None:
-    global _WORKER_IMAGES
-    _WORKER_IMAGES = images
-
-
-def _worker_pair_pose(i: int, j: int, camera, ratio: float, seed: int):
-    return _pair_pose(_WORKER_IMAGES[i], _WORKER_IMAGES[j], camera, ratio, seed)
-
-
-def _pair_poses(features, pairs, camera, ratio, seed, workers: int, progress) -> list:
-    """:func:`_pair_pose` of every (i, j) in ``pairs``, in order; on ``workers``
-    processes (each gets every image once, then pair indices), calling ``progress()``
-    as each pair is done."""
-    results = [None] * len(pairs)
-    if workers <= 1 or len(pairs) <= 1:
-        for k, (i, j) in enumerate(pairs):
-            results[k] = _pair_pose(features[i], features[j], camera, ratio, seed)
-            if progress is not None:
-                progress()
-        return results
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    from . import pose  # noqa: F401  (imported once here, before the workers start)
-
-    pool = ProcessPoolExecutor(max_workers=workers, initializer=_init_pair_worker, initargs=(features,))
-    try:
-        futures = {pool.submit(_worker_pair_pose, i, j, camera, ratio, seed): k
-                   for k, (i, j) in enumerate(pairs)}
-        for future in as_completed(futures):
-            results[futures[future]] = future.result()
-            if progress is not None:
-                progress()
-    except BaseException:  # Ctrl-C, SIGTERM or a worker's error: stop now, not after the queue
-        processes = list((getattr(pool, "_processes", None) or {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
-        for process in processes:
-            process.terminate()
-        raise
-    pool.shutdown()
-    return results
-
-
 def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camera,
                   ratio: float = 0.8, seed: int = 0, workers: int = 1,
                   progress=None) -> Dict[Tuple[str, str], Optional[PairPose]]:
@@ -529,6 +466,7 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
         database's, names repeat, the database already holds matches, the seed is
         outside [0, 2**31), or ``workers`` is not a positive integer.
     """
+    from ._pairs import pair_poses
     from .keypoint_rows import keypoint_slopes, keypoints_to_rows
     from .pose import _check_seed
 
@@ -556,7 +494,7 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
     pairs = list(combinations(range(len(ordered)), 2))
     # The poses first (in worker processes, without the database open), then the writes.
     features = [(keypoints_to_rows(im.keypoints), im.descriptors) for im in ordered]
-    estimates = _pair_poses(features, pairs, camera, ratio, seed, int(workers), progress)
+    estimates = pair_poses(features, pairs, camera, ratio, seed, int(workers), progress)
     poses = {}
     with colmap_log(), pycolmap.Database.open(_require_database(database_path)) as db:
         for (a, b), estimate in zip(pairs, estimates):

@@ -170,14 +170,23 @@ class TransferScorer:
     def _jacobian_and_error(self, R, t, h, i, p, projection: bool = False):
         """For the pairs (h, i): the prediction's Jacobian on capture 1's (x, y, w), whitened
         (columns times capture 1's noise, rows divided by capture 2's), as three (m, 3)
-        rows; the whitened error of capture 2's observation (m, 3); the projection's
-        Jacobian d prediction / d p (m, 3, 3; with ``projection``, else None) and the
-        error (m, 3)."""
+        rows; the whitened error of capture 2's observation (m, 3); None; and the error
+        (m, 3). With ``projection``: None, None, the projection's Jacobian d prediction /
+        d p (m, 3, 3) and the error."""
         f2, ss2 = self.f2, self.camera2.slope_scale
         w = self.w[i]
         with np.errstate(divide="ignore", invalid="ignore"):
             iz = 1.0 / p[:, 2]
         a, b = p[:, 0] * iz, p[:, 1] * iz
+        error = np.column_stack([f2 * (self.uv2[i, 0] - a), f2 * (self.uv2[i, 1] - b),
+                                 self.obs2[i, 2] - ss2 * (w * iz - 1.0 / self.camera2.focus_distance)])
+        if projection:  # the local fit needs only these
+            G = np.zeros((len(h), 3, 3))
+            G[:, 0, 0] = G[:, 1, 1] = f2 * iz
+            G[:, 0, 2] = -f2 * a * iz
+            G[:, 1, 2] = -f2 * b * iz
+            G[:, 2, 2] = -ss2 * w * iz * iz
+            return None, None, G, error
         # dp/d(x, y, w) of each pose, rows p_x, p_y, p_z, gathered per pair
         Dp = np.concatenate([R[:, :, :2] / self.f1, t[:, :, None]], axis=2).transpose(1, 0, 2)[:, h]
         sd1, sd2 = self.sd1[i], self.sd2[i]
@@ -186,16 +195,7 @@ class TransferScorer:
         J2 = (-ss2 * w * iz * iz / sd2[:, 2])[:, None] * Dp[2]
         J2[:, 2] += ss2 * iz / sd2[:, 2]  # slope2 = f b (w / p_z - 1/F): direct term in w
         J2 *= sd1
-        error = np.column_stack([f2 * (self.uv2[i, 0] - a), f2 * (self.uv2[i, 1] - b),
-                                 self.obs2[i, 2] - ss2 * (w * iz - 1.0 / self.camera2.focus_distance)])
-        if not projection:
-            return (J0, J1, J2), error / sd2, None, error
-        G = np.zeros((len(h), 3, 3))
-        G[:, 0, 0] = G[:, 1, 1] = f2 * iz
-        G[:, 0, 2] = -f2 * a * iz
-        G[:, 1, 2] = -f2 * b * iz
-        G[:, 2, 2] = -ss2 * w * iz * iz
-        return (J0, J1, J2), error / sd2, G, error
+        return (J0, J1, J2), error / sd2, None, error
 
     @staticmethod
     def _whitened_covariance(J) -> np.ndarray:
@@ -295,8 +295,8 @@ class TransferScorer:
         p = self._p(R, t, h, i)
         front = p[:, 2] > MIN_DEPTH
         _, _, G, e = self._jacobian_and_error(R, t, h, i, np.where(front[:, None], p, 1.0), True)
-        rd = np.einsum("mij,mj->mi", R[h], self.D[i])
         w = self.w[i]
+        rd = p - t[h] * w[:, None]  # R d
         dp = np.zeros((len(h), 3, 6))
         dp[:, 0, 1], dp[:, 0, 2] = rd[:, 2], -rd[:, 1]  # -[R d]_x
         dp[:, 1, 0], dp[:, 1, 2] = -rd[:, 2], rd[:, 0]

@@ -33,6 +33,7 @@ import itertools
 import json
 import os
 import re
+import resource
 import subprocess
 import sys
 import tempfile
@@ -48,11 +49,23 @@ CAMERA_ARGS = ["--camera", "300", "0.0409", "159.5", "119.5", "--focus-distance"
 CAMERA = liff.LightFieldCamera(300.0, 0.0409, (159.5, 119.5), 5.09)
 
 
-def liff_cli(*args, env=None) -> float:
-    """Runs ``python -m liff ARGS`` in a fresh process; its wall seconds (raises on failure)."""
-    start = time.perf_counter()
-    done = subprocess.run([sys.executable, "-m", "liff", *args], capture_output=True, text=True, env=env)
-    seconds = time.perf_counter() - start
+def children_cpu() -> float:
+    """CPU seconds (user + system) of this process's finished children so far."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def run(command) -> tuple:
+    """(wall s, CPU s of the process and its children, CompletedProcess) of a command."""
+    start, cpu = time.perf_counter(), children_cpu()
+    done = subprocess.run(command, capture_output=True, text=True)
+    return time.perf_counter() - start, children_cpu() - cpu, done
+
+
+def liff_cli(*args) -> float:
+    """Runs ``python -m liff ARGS`` in a fresh process; its wall seconds (raises on
+    failure; ``liff_cli.cpu`` holds its CPU seconds, ``liff_cli.last`` the process)."""
+    seconds, liff_cli.cpu, done = run([sys.executable, "-m", "liff", *args])
     if done.returncode != 0:
         raise RuntimeError(f"liff {' '.join(args)} failed ({done.returncode}): {done.stderr[-2000:]}")
     liff_cli.last = done
@@ -103,29 +116,32 @@ def pair_timings(feature_paths, truth, repeats: int):
 
 
 def pose_command(folder, feature_paths, repeats: int):
-    """(liff pose wall s, read-only wall s), medians of ``repeats`` fresh processes."""
+    """(liff pose wall s, CPU s; read-only wall s, CPU s), medians of ``repeats`` fresh
+    processes each."""
     a, b = feature_paths[0], feature_paths[1]
     reader = ("import liff.cli, liff.cli.pose; from liff.feature_file import load_features; "
               f"load_features({a!r}); load_features({b!r})")
     pose, read = [], []
     for _ in range(repeats):
-        pose.append(liff_cli("pose", a, b, *CAMERA_ARGS))
-        start = time.perf_counter()
-        subprocess.run([sys.executable, "-c", reader], check=True)
-        read.append(time.perf_counter() - start)
-    return float(np.median(pose)), float(np.median(read))
+        pose.append((liff_cli("pose", a, b, *CAMERA_ARGS), liff_cli.cpu))
+        wall, cpu, done = run([sys.executable, "-c", reader])
+        done.check_returncode()
+        read.append((wall, cpu))
+    return tuple(np.median(pose, axis=0)) + tuple(np.median(read, axis=0))
 
 
 def sfm_command(folder, poses_dir, workers: int):
-    """(sfm wall s, its matching step s, colmap (detection + database) wall s)."""
+    """(sfm wall s, its matching step s, colmap (detection + database) wall s, sfm CPU s,
+    colmap CPU s)."""
     ws = os.path.join(folder, f"ws{workers}")
     sfm = liff_cli("sfm", poses_dir, "--workspace", ws, "--overwrite", "--workers", str(workers), *CAMERA_ARGS)
+    sfm_cpu = liff_cli.cpu
     found = re.search(r"by their metric pose: done in ([0-9.]+) s", liff_cli.last.stderr)
     matching = float(found.group(1)) if found else float("nan")
     db = os.path.join(folder, f"db{workers}")
     colmap = liff_cli("colmap", poses_dir, "--database", os.path.join(db, "database.db"), "--image-dir",
                       os.path.join(db, "images"), "--overwrite", "--workers", str(workers))
-    return sfm, matching, colmap
+    return sfm, matching, colmap, sfm_cpu, liff_cli.cpu
 
 
 def scaling(folder, sizes, workers: int):
@@ -186,17 +202,20 @@ def main() -> int:
         print(f"CPU per pair ~ {intercept:.3f} s + {1e3 * slope:.3f} ms x putative matches (least squares "
               f"over these pairs, {rows[:, 2].min():.0f}-{rows[:, 2].max():.0f} putative)")
 
-        pose, read = pose_command(folder, feature_paths, args.repeats)
+        pose, pose_cpu, read, read_cpu = pose_command(folder, feature_paths, args.repeats)
         print(f"\n## 2. liff pose A.npz B.npz --camera ... (fresh processes, median of {args.repeats})\n")
-        print(f"liff pose {pose:.2f} s; import + read both feature files {read:.2f} s; beyond reading "
-              f"its inputs {pose - read:.2f} s")
+        print(f"liff pose {pose:.2f} s wall, {pose_cpu:.2f} s CPU; import + read both feature files "
+              f"{read:.2f} s wall, {read_cpu:.2f} s CPU; beyond reading its inputs {pose - read:.2f} s "
+              f"wall, {pose_cpu - read_cpu:.2f} s CPU")
 
         print("\n## 3. liff sfm --camera against its detection and database step (fresh processes)\n")
-        print("| workers | liff sfm s | its pose matching s | liff colmap (detection + database) s | ratio |")
-        print("|---|---|---|---|---|")
+        print("| workers | liff sfm s | its pose matching s | liff colmap (detection + database) s | ratio "
+              "| CPU s: sfm, colmap, ratio |")
+        print("|---|---|---|---|---|---|")
         for w in args.workers:
-            sfm, matching, colmap = sfm_command(folder, poses_dir, w)
-            print(f"| {w} | {sfm:.2f} | {matching:.2f} | {colmap:.2f} | {sfm / colmap:.2f} |")
+            sfm, matching, colmap, sfm_cpu, colmap_cpu = sfm_command(folder, poses_dir, w)
+            print(f"| {w} | {sfm:.2f} | {matching:.2f} | {colmap:.2f} | {sfm / colmap:.2f} | {sfm_cpu:.2f}, "
+                  f"{colmap_cpu:.2f}, {sfm_cpu / colmap_cpu:.2f} |")
 
         if args.scaling:
             print("\n## 4. Growth with the number of captures (liff.colmap.match_by_pose, 1 process)\n")

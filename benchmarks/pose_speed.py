@@ -83,7 +83,8 @@ def make_poses(folder: str, n: int, nfeatures: int = 0) -> tuple:
         liff_cli("detect", poses, "--out", feats, "--nfeatures", str(nfeatures))
     names = sorted(f[:-4] for f in os.listdir(poses) if f.endswith(".npz"))
     with open(poses + ".truth.json", encoding="utf-8") as f:
-        truth = {p["name"]: (np.array(p["rotation"]), np.array(p["translation"])) for p in json.load(f)["poses"]}
+        truth = {p["name"]: (np.array(p["rotation"]), np.array(p["translation"]))
+                 for p in json.load(f)["poses"]}
     return ([os.path.join(poses, f"{m}.npz") for m in names],
             [os.path.join(feats, f"{m}.npz") for m in names], [truth[m] for m in names])
 
@@ -134,7 +135,8 @@ def sfm_command(folder, poses_dir, workers: int):
     """(sfm wall s, its matching step s, colmap (detection + database) wall s, sfm CPU s,
     colmap CPU s)."""
     ws = os.path.join(folder, f"ws{workers}")
-    sfm = liff_cli("sfm", poses_dir, "--workspace", ws, "--overwrite", "--workers", str(workers), *CAMERA_ARGS)
+    sfm = liff_cli("sfm", poses_dir, "--workspace", ws, "--overwrite", "--workers", str(workers),
+                   *CAMERA_ARGS)
     sfm_cpu = liff_cli.cpu
     found = re.search(r"by their metric pose: done in ([0-9.]+) s", liff_cli.last.stderr)
     matching = float(found.group(1)) if found else float("nan")
@@ -192,7 +194,8 @@ def main() -> int:
         rows = pair_timings(feature_paths, truth, args.repeats)
         print(f"\n## 1. liff.estimate_relative_pose, {len(rows)} pairs of {args.poses} captures "
               f"(best of {args.repeats})\n")
-        print("| pair | wall s | CPU s | putative | inliers | t err | R err (deg) |\n|---|---|---|---|---|---|---|")
+        print("| pair | wall s | CPU s | putative | inliers | t err | R err (deg) |")
+        print("|---|---|---|---|---|---|---|")
         for (i, j), r in zip(itertools.combinations(range(args.poses), 2), rows):
             print(f"| {i}-{j} | {r[0]:.3f} | {r[1]:.3f} | {r[2]:.0f} | {r[3]:.0f} | {r[4]:.3f}% | {r[5]:.4f} |")
         print(f"\nwall per pair: median {np.median(rows[:, 0]):.3f} s, max {rows[:, 0].max():.3f} s; CPU median "

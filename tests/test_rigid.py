@@ -129,7 +129,8 @@ def bundle_problem(rng, n=25, n_wrong=3):
     obs1, obs2, R, t = scene(rng, n, n_wrong)
     problem = _Problem(obs1, obs2, CAMERA, CAMERA, np.tile([0.2, 0.2, 0.02, 0.2, 0.2, 0.02], (n, 1)))
     rvec = cv2.Rodrigues(R)[0].ravel() + 0.01
-    params = np.concatenate([rvec, t + 0.02, np.column_stack([obs1[:, :2], CAMERA.inverse_depth(obs1[:, 2])]).ravel()])
+    points = np.column_stack([obs1[:, :2], CAMERA.inverse_depth(obs1[:, 2])])
+    params = np.concatenate([rvec, t + 0.02, points.ravel()])
     return problem, params
 
 
@@ -141,7 +142,8 @@ def test_bundle_jacobian_matches_finite_differences():
     for k in range(6 + 3 * n):
         delta = np.zeros_like(params)
         delta[k] = step * max(1.0, abs(params[k]))
-        numeric[:, :, k] = (problem.residuals(params + delta) - problem.residuals(params - delta)) / (2 * delta[k])
+        difference = problem.residuals(params + delta) - problem.residuals(params - delta)
+        numeric[:, :, k] = difference / (2 * delta[k])
     assert np.abs(pose - numeric[:, :, :6]).max() <= 1e-5 * np.abs(pose).max()
     own = numeric[:, :, 6:].reshape(n, 6, n, 3)[np.arange(n), :, np.arange(n)]  # (n, 6, 3)
     assert np.abs(point - own).max() <= 1e-5 * np.abs(point).max()

@@ -262,7 +262,8 @@ class TransferScorer:
         pz = P[:, 2]
         front = pz > MIN_DEPTH
         s1, sw, s2 = self.sd1[:, 0].max() / self.f1, self.sd1[:, 2].max(), self.sd2[:, 0].max() / self.f2
-        cov = (s1 * s1) * (R[:, :, :2] @ np.swapaxes(R[:, :, :2], 1, 2)) + (sw * sw) * (t[:, :, None] * t[:, None, :])
+        cov = ((s1 * s1) * (R[:, :, :2] @ np.swapaxes(R[:, :, :2], 1, 2))
+               + (sw * sw) * (t[:, :, None] * t[:, None, :]))
         p00, p01, p02, p11, p12, p22 = (cov[:, r, c, None].astype(f4)
                                         for r, c in ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)))
         s22 = f4(s2 * s2)

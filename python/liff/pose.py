@@ -638,7 +638,8 @@ def _msac(obs1, obs2, X1, X2, usable, s, camera1, camera2, seeds, rng, confidenc
         cost2, inliers2 = scorer.scores(R2, t2)
         better = cost2 < cost[active]
         index = np.flatnonzero(active)[better]
-        R[index], t[index], cost[index], inliers[index] = R2[better], t2[better], cost2[better], inliers2[better]
+        R[index], t[index] = R2[better], t2[better]
+        cost[index], inliers[index] = cost2[better], inliers2[better]
         active[np.flatnonzero(active)[~better]] = False
     if not len(cost):
         return None, drawn

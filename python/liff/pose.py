@@ -203,6 +203,7 @@ class _Problem:
         self.obs1, self.obs2, self.cam1, self.cam2 = obs1, obs2, cam1, cam2
         self.n = len(obs1)
         self.scale = 1.0 / np.asarray(noise, np.float64)  # (n, 6): 1 / noise of each residual
+        self.observed = np.hstack([obs1, obs2])
 
     def _geometry(self, params):
         R, dR = cv2.Rodrigues(np.asarray(params[:3], np.float64).reshape(3, 1))
@@ -225,7 +226,7 @@ class _Problem:
             pts[:, 0], pts[:, 1], c1.slope_scale * (pts[:, 2] - 1 / c1.focus_distance),
             c2.focal_length * p[:, 0] / pz + cx2, c2.focal_length * p[:, 1] / pz + cy2,
             c2.slope_scale * (pts[:, 2] / pz - 1 / c2.focus_distance)])
-        return (pred - np.hstack([self.obs1, self.obs2])) * self.scale
+        return (pred - self.observed) * self.scale
 
     def blocks(self, params):
         """Jacobian blocks of the normalised residuals: (n, 6, 6) on the pose and

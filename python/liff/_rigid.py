@@ -8,6 +8,12 @@
   capture 2's observations (x, y, slope) under the carried-over noise, and a Gauss-Newton
   fit of a pose to its inliers with an analytic Jacobian (local optimisation).
 
+Why not a library's robust estimator alone: OpenCV's ``estimateAffine3D`` and COLMAP's
+``estimate_rigid3d_robust`` (whose hypothesis :func:`liff.pose.estimate_relative_pose`
+scores as one more) threshold residuals in metres, and a light field's depth noise grows
+as Z^2 / (f b) times its slope noise, so a 3-D threshold drops the right far matches or
+admits wrong near ones; these scores are in each capture's observations instead.
+
 The model is :func:`liff.pose.refine_relative_pose`'s: a feature of capture 1 at pixel
 (x, y) with inverse depth w (from its slope) is the point whose direction is
 ``d = ((x - cx) / f, (y - cy) / f, 1)``; capture 2 sees ``p = R d + w t`` (w times the

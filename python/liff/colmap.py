@@ -428,7 +428,7 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
     baseline is nil); a pair without a pose
     (:class:`liff.PoseEstimationError`) gets no matches. Instead of :func:`match`, on a
     database from :func:`write_database` of the same ``images``. Costs a pose estimate
-    per pair (0.2-0.5 s each with ~700 features an image, docs/BENCHMARKS.md): N (N - 1)
+    per pair (0.15-0.4 s each with ~730 features an image, docs/BENCHMARKS.md): N (N - 1)
     / 2 of them for N images, spread over ``workers`` processes.
 
     Parameters

@@ -106,11 +106,11 @@ def rotations(rvecs: np.ndarray) -> np.ndarray:
     return np.eye(3) + a[..., None, None] * K + b[..., None, None] * (K @ K)
 
 
-def _mahalanobis(C: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """u^T C^-1 u for symmetric positive definite C (m, 3, 3) and u (m, 3), from the
-    adjugate (C is whitened to I + J J^T by the callers: well conditioned from below)."""
-    a, b, c = C[:, 0, 0], C[:, 0, 1], C[:, 0, 2]
-    d, e, f = C[:, 1, 1], C[:, 1, 2], C[:, 2, 2]
+def _mahalanobis(entries, u: np.ndarray) -> np.ndarray:
+    """u^T C^-1 u for symmetric positive definite C given by its entries (c00, c01, c02,
+    c11, c12, c22), each (m,), and u (m, 3), from the adjugate (C is whitened to I + J J^T
+    by the callers: well conditioned from below)."""
+    a, b, c, d, e, f = entries
     A11, A12, A13 = d * f - e * e, c * e - b * f, b * e - c * d
     A22, A23, A33 = a * f - c * c, b * c - a * e, a * d - b * b
     det = a * A11 + b * A12 + c * A13
@@ -223,13 +223,16 @@ class TransferScorer:
         prediction's variance exceeds ``MAX_VARIANCE``."""
         p = self._p(R, t, h, i) if p is None else p
         front = p[:, 2] > MIN_DEPTH
-        J, u, _, _ = self._jacobian_and_error(R, t, h, i, np.where(front[:, None], p, 1.0))
-        C = self._whitened_covariance(J)
-        valid = front & np.isfinite(u).all(axis=1) & np.isfinite(C).all(axis=(1, 2)) & (
-            (np.einsum("mii->mi", C) * self.sd2[i] ** 2) < MAX_VARIANCE).all(axis=1)
-        out = np.full(len(h), np.inf)
-        out[valid] = _mahalanobis(C[valid], u[valid])
-        return out
+        (J0, J1, J2), u, _, _ = self._jacobian_and_error(R, t, h, i, np.where(front[:, None], p, 1.0))
+        dot = lambda x, y: np.einsum("mi,mi->m", x, y)  # noqa: E731
+        entries = (1.0 + dot(J0, J0), dot(J0, J1), dot(J0, J2), 1.0 + dot(J1, J1), dot(J1, J2),
+                   1.0 + dot(J2, J2))
+        with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+            d = _mahalanobis(entries, u)
+            variance = self.sd2[i] ** 2  # each diagonal entry back in capture 2's units
+            valid = (front & np.isfinite(d) & (entries[0] * variance[:, 0] < MAX_VARIANCE)
+                     & (entries[3] * variance[:, 1] < MAX_VARIANCE) & (entries[5] * variance[:, 2] < MAX_VARIANCE))
+        return np.where(valid, d, np.inf)
 
     def scores(self, R: np.ndarray, t: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
         """MSAC costs and inliers of poses.

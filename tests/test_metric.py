@@ -567,6 +567,18 @@ def test_cli_sfm_says_what_to_try_when_the_default_mapper_makes_no_model(pose_fi
     assert "model 0 in metres from 1 pair pose (pose graph)" in capsys.readouterr().out
 
 
+def test_cli_sfm_counts_the_pairs_matched_on_workers(pose_files, tmp_path, capsys, monkeypatch):
+    # Matching by pose is the step a user waits on: a bar counts its pairs, and --workers
+    # spreads them over processes.
+    monkeypatch.setenv("LIFF_PROGRESS", "1")
+    capture, paths = pose_files
+    assert main(["sfm", *paths, "--workspace", str(tmp_path / "ws"), "--workers", "2",
+                 *camera_options(camera_of(capture)), *detector_options()]) == 0
+    captured = capsys.readouterr()
+    assert "liff sfm: pairs matched" in captured.err and "3/3" in captured.err
+    assert "matched by metric pose: 3 of 3 pairs" in captured.out
+
+
 def test_cli_sfm_warns_when_the_slopes_do_not_fit_the_camera(pose_files, tmp_path, capsys):
     # A baseline 10x off still gives poses and a model, consistent with that wrong camera;
     # only the slopes' residuals (3.5 px per view where a right camera gives ~0.01) say so.
@@ -630,6 +642,36 @@ def test_match_by_pose_writes_verified_geometries(pose_capture, tmp_path):
                              camera)
     with pytest.raises(ValueError, match="seed = -1; expected an integer"):
         colmap.match_by_pose(database, images, camera, seed=-1)
+
+
+def test_match_by_pose_on_workers_equals_serial(pose_capture, tmp_path):
+    import pycolmap
+
+    from liff import colmap
+
+    capture, features = pose_capture
+    results, stored = [], []
+    for workers in (1, 2):
+        camera, images, database = pose_database(capture, features, tmp_path / f"w{workers}")
+        done = []
+        poses = colmap.match_by_pose(database, images, camera, workers=workers,
+                                     progress=lambda: done.append(1))
+        assert len(done) == 3  # one call per pair
+        results.append(poses)
+        with pycolmap.Database.open(str(database)) as db:
+            ids = {im.name: im.image_id for im in db.read_all_images()}
+            stored.append({pair: np.asarray(db.read_two_view_geometry(ids[pair[0]], ids[pair[1]]).inlier_matches)
+                           for pair in poses})
+    assert results[0].keys() == results[1].keys()
+    for pair, serial in results[0].items():
+        parallel = results[1][pair]
+        assert np.array_equal(serial.rotation, parallel.rotation)
+        assert np.array_equal(serial.translation, parallel.translation)
+        assert np.array_equal(serial.covariance, parallel.covariance)
+        assert serial.inliers == parallel.inliers >= 50
+        assert np.array_equal(stored[0][pair], stored[1][pair])
+    with pytest.raises(ValueError, match="workers = 0; expected a positive integer"):
+        colmap.match_by_pose(database, images, camera, workers=0)
 
 
 def write_hci_scene(folder, light_field, camera, width=None):

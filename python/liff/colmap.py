@@ -413,7 +413,8 @@ class PairPose:
 
 
 def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camera,
-                  ratio: float = 0.8, seed: int = 0) -> Dict[Tuple[str, str], Optional[PairPose]]:
+                  ratio: float = 0.8, seed: int = 0, workers: int = 1,
+                  progress=None) -> Dict[Tuple[str, str], Optional[PairPose]]:
     """Matching of calibrated light fields by their metric relative pose, for every pair.
 
     For light fields of one calibrated camera (:class:`liff.LightFieldCamera`) each pair's
@@ -427,7 +428,8 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
     baseline is nil); a pair without a pose
     (:class:`liff.PoseEstimationError`) gets no matches. Instead of :func:`match`, on a
     database from :func:`write_database` of the same ``images``. Costs a pose estimate
-    per pair (seconds each): N (N - 1) / 2 of them for N images.
+    per pair (0.15-0.4 s each with ~730 features an image, docs/BENCHMARKS.md): N (N - 1)
+    / 2 of them for N images, spread over ``workers`` processes.
 
     Parameters
     ----------
@@ -440,7 +442,14 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
     ratio : float
         Lowe's ratio for the putative matches.
     seed : int in [0, 2**31)
-        RANSAC's seed (repeatable).
+        RANSAC's seed (repeatable: every pair gets it, so the result does not depend on
+        ``workers``).
+    workers : int >= 1
+        Processes that estimate the pairs' poses (1: this one); the database is written
+        here, in pair order.
+    progress : callable, optional
+        Called with no argument as each pair's pose is estimated (e.g. a tqdm bar's
+        ``update``).
 
     Returns
     -------
@@ -454,17 +463,19 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
     ------
     ValueError
         If an image is not in the database or its keypoint count differs from the
-        database's, names repeat, the database already holds matches, or the seed is
-        outside [0, 2**31).
+        database's, names repeat, the database already holds matches, the seed is
+        outside [0, 2**31), or ``workers`` is not a positive integer.
     """
-    from .keypoint_rows import keypoint_slopes
-    from .pose import PoseEstimationError, _check_seed, estimate_relative_pose
+    from ._pairs import pair_poses
+    from .keypoint_rows import keypoint_slopes, keypoints_to_rows
+    from .pose import _check_seed
 
     _check_seed(seed)
+    if isinstance(workers, (bool, np.bool_)) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers = {workers!r}; expected a positive integer")
     names = [im.name for im in images]
     if len(set(names)) != len(names):
         raise ValueError(f"repeated image names {sorted(names)}; expected one image each")
-    poses = {}
     with colmap_log(), pycolmap.Database.open(_require_database(database_path)) as db:
         ids = {image.name: image.image_id for image in db.read_all_images()}
         missing = [name for name in names if name not in ids]
@@ -479,19 +490,22 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
         if db.num_matched_image_pairs() or db.num_verified_image_pairs():
             raise ValueError(f"{os.fspath(database_path)} already holds matches; expected a fresh "
                              "database from write_database")
-        ordered = sorted(images, key=lambda im: ids[im.name])  # COLMAP keeps pairs as (smaller id, larger)
-        for first, second in combinations(ordered, 2):
-            try:
-                R, t, matches, details = estimate_relative_pose(
-                    first.keypoints, first.descriptors, second.keypoints, second.descriptors,
-                    camera, ratio=ratio, seed=seed, return_details=True)
-            except PoseEstimationError:
+    ordered = sorted(images, key=lambda im: ids[im.name])  # COLMAP keeps pairs as (smaller id, larger)
+    pairs = list(combinations(range(len(ordered)), 2))
+    # The poses first (in worker processes, without the database open), then the writes.
+    features = [(keypoints_to_rows(im.keypoints), im.descriptors) for im in ordered]
+    estimates = pair_poses(features, pairs, camera, ratio, seed, int(workers), progress)
+    poses = {}
+    with colmap_log(), pycolmap.Database.open(_require_database(database_path)) as db:
+        for (a, b), estimate in zip(pairs, estimates):
+            first, second = ordered[a], ordered[b]
+            if estimate is None:
                 poses[(first.name, second.name)] = None
                 continue
-            pairs = np.array([(m.queryIdx, m.trainIdx) for m in matches], np.uint32).reshape(-1, 2)
+            R, t, pairs_ab, covariance = estimate
             geometry = pycolmap.TwoViewGeometry()
-            geometry.inlier_matches = pairs
-            depth = np.nanmedian(camera.depth(keypoint_slopes([first.keypoints[m.queryIdx] for m in matches])))
+            geometry.inlier_matches = pairs_ab
+            depth = np.nanmedian(camera.depth(keypoint_slopes([first.keypoints[q] for q in pairs_ab[:, 0]])))
             if np.linalg.norm(t) <= PANORAMIC_BASELINE * (depth if np.isfinite(depth) else 1.0):
                 # No baseline (a rotation about the centre view): nothing to triangulate;
                 # COLMAP takes the pair as panoramic, related by H = K R K^-1.
@@ -506,9 +520,9 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
                 geometry.config = pycolmap.TwoViewGeometryConfiguration.CALIBRATED
                 geometry.E = np.array([[0, -tz, ty], [tz, 0, -tx], [-ty, tx, 0]]) @ R  # [t]_x R
                 geometry.cam2_from_cam1 = pycolmap.Rigid3d(pycolmap.Rotation3d(R), direction)
-            db.write_matches(ids[first.name], ids[second.name], pairs)
+            db.write_matches(ids[first.name], ids[second.name], pairs_ab)
             db.write_two_view_geometry(ids[first.name], ids[second.name], geometry)
-            poses[(first.name, second.name)] = PairPose(R, t, details.covariance, len(pairs))
+            poses[(first.name, second.name)] = PairPose(R, t, covariance, len(pairs_ab))
     return poses
 
 

@@ -9,7 +9,8 @@ observations (x, y, slope).
 The 3-D points themselves are poor measurements: depth noise grows as Z^2 / (f b) times
 the slope noise, so far points dominate a fit in 3-D (a plain Umeyama fit) and the
 inverse of a noisy slope is biased. The refinement is a two-capture bundle adjustment
-(SciPy's ``least_squares``, analytic sparse Jacobian) over the pose and each matched
+(Levenberg-Marquardt with the points eliminated by the Schur complement, analytic
+Jacobian: :mod:`liff._bundle`) over the pose and each matched
 point, parameterised in capture 1 by its pixel and inverse depth (points at or near
 infinity stay finite), each residual divided by its feature's noise from a model
 fitted to the residuals themselves (:class:`NoiseModel`). Guided matching with the
@@ -25,6 +26,8 @@ from typing import List, Optional, Sequence, Tuple
 import cv2
 import numpy as np
 
+from . import _bundle
+from ._rigid import TransferScorer, rigid_fits as _rigid_fits, sample_triples
 from .camera import LightFieldCamera, keypoint_geometry
 from .matching import size_mask, ratio_matches
 
@@ -200,6 +203,7 @@ class _Problem:
         self.obs1, self.obs2, self.cam1, self.cam2 = obs1, obs2, cam1, cam2
         self.n = len(obs1)
         self.scale = 1.0 / np.asarray(noise, np.float64)  # (n, 6): 1 / noise of each residual
+        self.observed = np.hstack([obs1, obs2])
 
     def _geometry(self, params):
         R, dR = cv2.Rodrigues(np.asarray(params[:3], np.float64).reshape(3, 1))
@@ -222,7 +226,7 @@ class _Problem:
             pts[:, 0], pts[:, 1], c1.slope_scale * (pts[:, 2] - 1 / c1.focus_distance),
             c2.focal_length * p[:, 0] / pz + cx2, c2.focal_length * p[:, 1] / pz + cy2,
             c2.slope_scale * (pts[:, 2] / pz - 1 / c2.focus_distance)])
-        return (pred - np.hstack([self.obs1, self.obs2])) * self.scale
+        return (pred - self.observed) * self.scale
 
     def blocks(self, params):
         """Jacobian blocks of the normalised residuals: (n, 6, 6) on the pose and
@@ -253,48 +257,14 @@ class _Problem:
         point[:, 5, 2] += c2.slope_scale / pz  # slope2 = f b (w / p_z - 1/F): direct term
         return pose * self.scale[:, :, None], point * self.scale[:, :, None]
 
-    def _point_columns(self) -> np.ndarray:
-        """(n, 6, 3): the parameter column of each point entry, rows in residual order."""
-        return np.broadcast_to(3 * np.arange(self.n)[:, None, None] + np.arange(3), (self.n, 6, 3))
-
-    def jacobian(self, params):
-        """Sparse (6n, 6 + 3n) Jacobian: each row holds 6 pose and 3 point entries."""
-        from scipy.sparse import csr_matrix
-
-        pose, point = self.blocks(params)
-        n = self.n
-        data = np.concatenate([pose, point], axis=2).reshape(-1)
-        if getattr(self, "_columns", None) is None:  # the same pattern for every call
-            self._columns = np.concatenate([np.broadcast_to(np.arange(6), (n, 6, 6)),
-                                            6 + self._point_columns()], axis=2).reshape(-1)
-        return csr_matrix((data, self._columns, np.arange(0, 54 * n + 1, 9)), shape=(6 * n, 6 + 3 * n))
-
     def solve_points(self, params):
         """params with every point fitted to its observations, the pose held."""
-        from scipy.optimize import least_squares
-        from scipy.sparse import csr_matrix
-
-        n = self.n
-        columns, pointers = self._point_columns().reshape(-1), np.arange(0, 18 * n + 1, 3)
-
-        def full(points):
-            return np.concatenate([params[:6], points])
-
-        def jac(points):
-            return csr_matrix((self.blocks(full(points))[1].reshape(-1), columns, pointers),
-                              shape=(6 * n, 3 * n))
-
-        fit = least_squares(lambda q: self.residuals(full(q)).ravel(), params[6:], jac=jac,
-                            method="trf", tr_solver="lsmr", x_scale="jac", xtol=1e-8, ftol=1e-8,
-                            max_nfev=50)
-        return full(fit.x)
+        return _bundle.solve_points(self, params)
 
     def solve(self, params0, loss: str):
-        from scipy.optimize import least_squares
-
-        return least_squares(lambda q: self.residuals(q).ravel(), params0, jac=self.jacobian,
-                             method="trf", tr_solver="lsmr", x_scale="jac", loss=loss,
-                             f_scale=3.0, xtol=1e-8, ftol=1e-8, max_nfev=100)
+        """Pose and points by Levenberg-Marquardt on the Schur complement
+        (:func:`liff._bundle.solve`; analytic Jacobian, :meth:`blocks`)."""
+        return _bundle.solve(self, params0, loss, f_scale=3.0)
 
 
 def _leverage(pose_blocks: np.ndarray, point_blocks: np.ndarray) -> np.ndarray:
@@ -303,12 +273,13 @@ def _leverage(pose_blocks: np.ndarray, point_blocks: np.ndarray) -> np.ndarray:
     columns with the points' part projected out, the Schur complement). With few
     matches the pose absorbs a good part of the residuals; leaving it out makes the
     fitted noise shrink round after round."""
-    inverse = np.linalg.pinv(np.einsum("nri,nrj->nij", point_blocks, point_blocks))
-    reduced = pose_blocks - np.einsum("nri,nij,nsj,nsk->nrk", point_blocks, inverse, point_blocks,
-                                      pose_blocks)
-    schur = np.einsum("nri,nrj->ij", reduced, reduced)
-    return (np.einsum("nri,nij,nrj->nr", point_blocks, inverse, point_blocks)
-            + np.einsum("nri,ij,nrj->nr", reduced, np.linalg.pinv(schur), reduced))
+    Bt = np.swapaxes(point_blocks, 1, 2)
+    BI = point_blocks @ np.linalg.pinv(Bt @ point_blocks)  # (n, 6, 3): B (B^T B)^+
+    reduced = pose_blocks - BI @ (Bt @ pose_blocks)
+    flat = reduced.reshape(-1, reduced.shape[2])
+    schur = flat.T @ flat
+    return (np.einsum("nri,nri->nr", BI, point_blocks)
+            + np.einsum("nri,nri->nr", reduced @ np.linalg.pinv(schur), reduced))
 
 
 def _pose_covariance(pose_blocks: np.ndarray, point_blocks: np.ndarray) -> np.ndarray:
@@ -538,47 +509,6 @@ def _transfer_distances(obs1, obs2, sigma1, sigma2, camera1, camera2, rotation, 
     return np.where(valid, distance, np.inf)
 
 
-def _rigid_fits(X1: np.ndarray, X2: np.ndarray, weights: Optional[np.ndarray] = None):
-    """Least-squares rigid motions X2 = R X1 + t (Kabsch) of point sets (..., k, 3),
-    optionally weighted (..., k): R (..., 3, 3), t (..., 3)."""
-    if weights is None:
-        weights = np.ones(X1.shape[:-1])
-    weights = weights / weights.sum(axis=-1, keepdims=True)
-    c1 = np.einsum("...k,...ki->...i", weights, X1)
-    c2 = np.einsum("...k,...ki->...i", weights, X2)
-    cross = np.einsum("...k,...ki,...kj->...ij", weights, X1 - c1[..., None, :], X2 - c2[..., None, :])
-    U, _, Vt = np.linalg.svd(cross)
-    sign = np.sign(np.linalg.det(np.swapaxes(Vt, -1, -2) @ np.swapaxes(U, -1, -2)))
-    fix = np.ones(U.shape[:-2] + (3,))
-    fix[..., 2] = np.where(sign == 0, 1.0, sign)
-    R = np.swapaxes(Vt, -1, -2) @ (fix[..., :, None] * np.swapaxes(U, -1, -2))
-    return R, c2 - np.einsum("...ij,...j->...i", R, c1)
-
-
-def _fit_transfer(obs1, obs2, sigma, camera1, camera2, rotation, translation):
-    """The pose (R, t) minimising the matches' transfer distances (capture 1's features
-    carried to capture 2 against its observations, :func:`_transfer_distances`) from a
-    start: SciPy's least_squares on the whitened differences, the covariances held at
-    the start pose."""
-    from scipy.optimize import least_squares
-
-    pred, cov = _transfer(obs1, sigma, camera1, camera2, rotation, translation)
-    cov = cov + (np.column_stack([sigma[:, 0], sigma[:, 0], sigma[:, 1]]) ** 2)[:, :, None] * np.eye(3)
-    try:
-        whiten = np.linalg.inv(np.linalg.cholesky(cov))  # (n, 3, 3): L^-1, cov = L L^T
-    except np.linalg.LinAlgError:
-        return rotation, translation
-
-    def residuals(q):
-        p, _ = _transfer(obs1, sigma, camera1, camera2, _rotation(q[:3]), q[3:], covariance=False)
-        diff = np.nan_to_num(obs2 - p, nan=1e6)  # behind capture 2: far off
-        return np.einsum("nij,nj->ni", whiten, diff).ravel()
-
-    q0 = np.concatenate([cv2.Rodrigues(rotation)[0].ravel(), translation])
-    fit = least_squares(residuals, q0, method="lm", xtol=1e-10, ftol=1e-10, max_nfev=200)
-    return _rotation(fit.x[:3]), fit.x[3:].copy()
-
-
 def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCamera,
                        camera2: LightFieldCamera, sigma: Tuple[float, float] = RANSAC_SIGMA,
                        seeds: Sequence[Tuple[np.ndarray, np.ndarray]] = (), seed: int = 0,
@@ -593,10 +523,11 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
     (3 degrees of freedom; MSAC). A 3-D threshold cannot do this: a far point's depth
     is Z^2 / (f b) times its slope noise, so a threshold in metres either rejects the
     far half of a scene's right matches or admits gross errors near the camera. The
-    best hypothesis is then re-fitted to its inliers (3-D points weighted by the
-    inverse of their depth variance, ~Z^-4) while its score improves (local
-    optimisation). Sampling stops when ``confidence`` that an all-inlier sample was
-    drawn is reached, or at ``max_hypotheses``.
+    best 16 hypotheses are then re-fitted to their inliers (Gauss-Newton on those
+    distances, analytic Jacobian) while their scores improve (local optimisation).
+    Sampling stops when ``confidence`` that an all-inlier sample was drawn is reached,
+    or at ``max_hypotheses``. Sampling, fitting (Kabsch on 3 points) and scoring are
+    vectorised over a batch of 256 hypotheses (:mod:`liff._rigid`).
 
     Parameters
     ----------
@@ -623,9 +554,9 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
         For a seed outside [0, 2**31).
     PoseEstimationError
         If no hypothesis has at least 3 inliers, or the best has fewer than 1.5 times the
-        inliers that the same search finds on the matches re-paired at random
-        (``RANSAC_CHANCE_TRIALS`` re-pairings): when every match is wrong, some motion
-        still agrees with a few of them.
+        inliers that the same search, with as many hypotheses, finds on the matches
+        re-paired at random (``RANSAC_CHANCE_TRIALS`` re-pairings): when every match is
+        wrong, some motion still agrees with a few of them.
     """
     _check_seed(seed)
     obs1, obs2 = np.asarray(obs1, np.float64), np.asarray(obs2, np.float64)
@@ -637,19 +568,20 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
         raise PoseEstimationError(f"{len(usable)} matches with a depth in both captures; expected "
                                   f"at least {MIN_MATCHES}")
 
-    best = _msac(obs1, obs2, X1, X2, usable, s, camera1, camera2, seeds, np.random.default_rng(seed),
-                 confidence, max_hypotheses)
+    best, drawn = _msac(obs1, obs2, X1, X2, usable, s, camera1, camera2, seeds,
+                        np.random.default_rng(seed), confidence, max_hypotheses)
     if best is None or best[2].sum() < MIN_MATCHES:
         raise PoseEstimationError(f"RANSAC found no rigid motion among {n} matches")
     # Significance: the same search on capture 2's features re-paired at random, which
     # share no motion with capture 1's, must find far fewer inliers; else the "best"
-    # motion is one that any set of matches this size offers (all matches wrong).
+    # motion is one that any set of matches this size offers (all matches wrong). It
+    # draws as many hypotheses as the search above did (the best of as many tries).
     rng = np.random.default_rng(seed + 1)
     chance = 0
     for _ in range(RANSAC_CHANCE_TRIALS):
         order = rng.permutation(n)
-        found = _msac(obs1, obs2[order], X1, X2[order], usable[np.isfinite(X2[order][usable]).all(axis=1)],
-                      s, camera1, camera2, (), rng, confidence, max_hypotheses)
+        found, _ = _msac(obs1, obs2[order], X1, X2[order], usable[np.isfinite(X2[order][usable]).all(axis=1)],
+                         s, camera1, camera2, (), rng, confidence, max(drawn, RANSAC_BATCH))
         chance = max(chance, 0 if found is None else int(found[2].sum()))
     k = int(best[2].sum())
     if k < RANSAC_CHANCE_FACTOR * chance:
@@ -661,15 +593,13 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
 
 
 def _msac(obs1, obs2, X1, X2, usable, s, camera1, camera2, seeds, rng, confidence, max_hypotheses):
-    """:func:`observation_ransac`'s search: (R, t, inliers) of the best hypothesis after
-    local optimisation, or None."""
+    """:func:`observation_ransac`'s search: ((R, t, inliers) of the best hypothesis after
+    local optimisation, or None; the number of hypotheses drawn). Hypotheses are drawn,
+    fitted (:func:`_rigid_fits`) and scored (:class:`liff._rigid.TransferScorer`) a batch
+    at a time in array operations."""
     if len(usable) < MIN_MATCHES:
-        return None
-
-    def score(R, t):
-        d = _transfer_distances(obs1, obs2, s, s, camera1, camera2, R, t)
-        return np.minimum(d, CHI2_INLIER).sum(axis=-1), d < CHI2_INLIER
-
+        return None, 0
+    scorer = TransferScorer(obs1, obs2, s, s, camera1, camera2, CHI2_INLIER)
     pool_cost, pool_R, pool_t = np.zeros(0), np.zeros((0, 3, 3)), np.zeros((0, 3))
     best_share, drawn, needed = 0.0, 0, max_hypotheses
     candidates = [(np.asarray(R, np.float64)[None], np.asarray(t, np.float64)[None]) for R, t in seeds]
@@ -678,10 +608,10 @@ def _msac(obs1, obs2, X1, X2, usable, s, camera1, camera2, seeds, rng, confidenc
             R, t = candidates.pop()
         else:
             batch = min(RANSAC_BATCH, max_hypotheses - drawn)
-            sample = np.array([rng.choice(usable, 3, replace=False) for _ in range(batch)])
+            sample = usable[sample_triples(rng, len(usable), batch)]
             drawn += batch
             R, t = _rigid_fits(X1[sample], X2[sample])
-        cost, inliers = score(R, t)
+        cost, inliers = scorer.scores(R, t)
         share = float(inliers[:, usable].mean(axis=1).max())
         if share > best_share:  # samples needed for an all-inlier one at this confidence
             best_share = share
@@ -695,24 +625,27 @@ def _msac(obs1, obs2, X1, X2, usable, s, camera1, camera2, seeds, rng, confidenc
         pool_R, pool_t = np.concatenate([pool_R, R]), np.concatenate([pool_t, t])
         keep = np.argsort(pool_cost, kind="stable")[:RANSAC_LOCAL_POOL]
         pool_cost, pool_R, pool_t = pool_cost[keep], pool_R[keep], pool_t[keep]
-    # Local optimisation of each of the best: the pose that minimises its inliers'
-    # distances, while the score improves (a hypothesis from three noisy 3-D points is
-    # only near the pose its sample's matches support).
-    best_cost, best = np.inf, None
-    for R, t in zip(pool_R, pool_t):
-        cost, inliers = (v[0] for v in score(R[None], t[None]))
-        for _ in range(RANSAC_LOCAL_ROUNDS):
-            chosen = np.flatnonzero(inliers)
-            if len(chosen) < MIN_MATCHES:
-                break
-            R2, t2 = _fit_transfer(obs1[chosen], obs2[chosen], s[chosen], camera1, camera2, R, t)
-            cost2, inliers2 = (v[0] for v in score(R2[None], t2[None]))
-            if not cost2 < cost:
-                break
-            cost, R, t, inliers = cost2, R2, t2, inliers2
-        if cost < best_cost:
-            best_cost, best = cost, (R, t, inliers)
-    return best
+    # Local optimisation of each of the best, all at once: the pose that minimises its
+    # inliers' distances, while the score improves (a hypothesis from three noisy 3-D
+    # points is only near the pose its sample's matches support).
+    R, t = pool_R.copy(), pool_t.copy()
+    cost, inliers = scorer.scores(R, t)
+    active = np.ones(len(R), bool)
+    for _ in range(RANSAC_LOCAL_ROUNDS):
+        active &= inliers.sum(axis=1) >= MIN_MATCHES
+        if not active.any():
+            break
+        R2, t2 = scorer.fit(R[active], t[active], inliers[active])
+        cost2, inliers2 = scorer.scores(R2, t2)
+        better = cost2 < cost[active]
+        index = np.flatnonzero(active)[better]
+        R[index], t[index] = R2[better], t2[better]
+        cost[index], inliers[index] = cost2[better], inliers2[better]
+        active[np.flatnonzero(active)[~better]] = False
+    if not len(cost):
+        return None, drawn
+    b = int(np.argmin(cost))
+    return (R[b], t[b], inliers[b]), drawn
 
 
 def guided_matches(obs1: np.ndarray, descriptors1: np.ndarray, obs2: np.ndarray,
@@ -761,8 +694,9 @@ def guided_matches(obs1: np.ndarray, descriptors1: np.ndarray, obs2: np.ndarray,
     # bounded by its largest eigenvalue), then the exact distance of those.
     valid = np.isfinite(pred).all(axis=1)
     largest = np.where(valid, np.linalg.eigvalsh(np.where(valid[:, None, None], cov1, 0)[:, :2, :2])[:, -1], 0)
-    xy = np.square(obs2[None, :, :2] - pred[:, None, :2]).sum(axis=2)  # (n1, n2)
-    i, j = np.nonzero(valid[:, None] & (xy < CHI2_INLIER * (largest[:, None] + noise2[None, :, 0])))
+    p1 = np.where(valid[:, None], pred[:, :2], np.inf)
+    dx, dy = obs2[None, :, 0] - p1[:, None, 0], obs2[None, :, 1] - p1[:, None, 1]  # (n1, n2)
+    i, j = np.nonzero(dx * dx + dy * dy < CHI2_INLIER * (largest[:, None] + noise2[None, :, 0]))
     diff = obs2[j] - pred[i]
     cov = cov1[i] + noise2[j][:, :, None] * np.eye(3)
     distance = np.einsum("nj,nj->n", diff, np.linalg.solve(cov, diff[:, :, None])[:, :, 0])

@@ -55,13 +55,15 @@ def add_parser(sub) -> None:
             add_camera_options(p)  # with a camera, the model is scaled to metres
             p.add_argument("--matching", choices=("pose", "colmap"), default=None,
                            help="'pose': every pair matched by its metric relative pose "
-                                "(liff.colmap.match_by_pose; needs a camera, a few seconds "
-                                "per pair); 'colmap': COLMAP's exhaustive matching and "
+                                "(liff.colmap.match_by_pose; needs a camera, well under a "
+                                "second per pair); 'colmap': COLMAP's exhaustive matching and "
                                 "verification (default: pose with a camera, else colmap)")
         p.add_argument("--focal", type=float, default=None,
                        help="focal length in pixels (default: COLMAP's guess, 1.2 x max side)")
         p.add_argument("--workers", type=common.positive_int, default=1,
-                       help="processes for detection (default 1)")
+                       help="processes for detection" + (
+                           "" if name == "colmap" else " and for matching pairs by pose")
+                       + " (default 1)")
         p.add_argument("--overwrite", action="store_true", help="replace an existing database")
         common.add_reader_options(p)
         common.add_detector_options(p)
@@ -221,7 +223,10 @@ def run_sfm(args: argparse.Namespace) -> int:
     with common.step(f"liff sfm: matching every pair of {len(args.paths) - failures} images"
                      + (" by their metric pose" if matching == "pose" else "")):
         if matching == "pose":
-            pair_poses = colmap.match_by_pose(database, images, camera)
+            count = len(images) * (len(images) - 1) // 2
+            with common.progress(desc="liff sfm: pairs matched", total=count, unit="pair") as bar:
+                pair_poses = colmap.match_by_pose(database, images, camera, workers=args.workers,
+                                                  progress=bar.update)
             counts = [pose.inliers for pose in pair_poses.values() if pose is not None]
             print(f"matched by metric pose: {len(counts)} of {len(pair_poses)} pairs"
                   + (f", {int(np.median(counts))} inlier matches per pair (median)" if counts else ""))

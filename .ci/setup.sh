@@ -25,12 +25,23 @@ if [ ${#missing[@]} -gt 0 ]; then
   DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-[ -x .venv/bin/python ] || python3 -m venv .venv
+if [ ! -x .venv/bin/python ]; then
+  echo "liff setup: making a virtualenv in .venv"
+  python3 -m venv .venv
+fi
+# pip builds the C++ core (CMake, scikit-build-core) quietly: say what takes the time.
+echo "liff setup: installing liff and its dependencies into .venv; this builds the C++ core (1-2 min on 2 cores)"
+start=$SECONDS
 .venv/bin/python -m pip install -q --disable-pip-version-check ".[test]"
+echo "liff setup: installed in $((SECONDS - start)) s"
 
 if [ "$mode" = demo ]; then
+  echo "liff setup: running liff demo --out ${2:-liff-demo}"
   exec .venv/bin/liff demo --out "${2:-liff-demo}"
 fi
 
+echo "liff setup: building and running the C++ tests and sample"
+
 bash .ci/cpp_sample.sh
+echo "liff setup: running the Python tests"
 .venv/bin/python -m pytest tests

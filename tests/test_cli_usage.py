@@ -220,3 +220,21 @@ def test_a_liff_detector_does_not_cross_into_cv2_feature2d_and_the_workaround_wo
     pairs = cv2.detail.BestOf2NearestMatcher(False, 0.3).apply2(features)
     assert pairs[1].num_inliers > 50
     np.testing.assert_allclose(pairs[1].H[:2, 2], (7, 4), atol=0.5)  # the shift between the two
+
+
+def test_the_readme_shows_what_the_demo_prints(tmp_path, capsys):
+    """README, "Set-up": the demo's summary block is what `liff demo` prints, all but
+    the seconds (and the picture's folder)."""
+    with open(os.path.join(ROOT, "README.md")) as f:
+        text = f.read()
+    block = re.search(r"^```\n(light field: 9x9 views.*?)^```", text, re.M | re.S)
+    assert block, "README has no demo output block"
+    assert main(["demo", "--out", str(tmp_path / "liff-demo")]) == 0
+    printed = capsys.readouterr().out
+
+    def normalise(output: str) -> list:
+        lines = [re.sub(r"in \d+\.\d+ s", "in T s", line) for line in output.strip().splitlines()]
+        return [line.rsplit(": ", 1)[0] if line.startswith("picture of") else line
+                for line in lines]
+
+    assert normalise(printed) == normalise(block.group(1))

@@ -253,27 +253,70 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
   }
 }
 
-LightField decimate(const LightField& lf, int factor) {
+namespace {
+
+// Sizes of `lf` decimated `factor` times (data not allocated).
+LightField decimatedSizes(const LightField& lf, int factor) {
   LightField small;
   small.T = lf.T;
   small.S = lf.S;
   small.V = lf.V / factor;
   small.U = lf.U / factor;
   CV_Assert(factor >= 1 && small.V >= 1 && small.U >= 1);
-  small.allocate(!lf.weights.empty());
-  auto shrink = [&](const cv::Mat& from, cv::Mat& to) {
-    // The whole factor x factor blocks only (a ragged edge is dropped).
-    const cv::Mat view = from.rowRange(0, small.V * factor).colRange(0, small.U * factor);
-    cv::resize(view, to, to.size(), 0, 0, cv::INTER_AREA);
-  };
-  parallelFor("survey decimation", cv::Range(0, int(small.views.size())), [&](const cv::Range& range) {
-    for (int v = range.start; v < range.end; ++v) {
-      shrink(lf.views[v], small.views[v]);
-      if (!lf.weights.empty()) shrink(lf.weights[v], small.weights[v]);
-    }
-  });
   small.maxWeight = lf.maxWeight;  // averages never exceed it (the test is relative)
   return small;
+}
+
+// `from` shrunk `factor` times into `to` (allocated, of the decimated size): area
+// averages over the whole factor x factor blocks only (a ragged edge is dropped).
+void shrink(const cv::Mat& from, int factor, cv::Mat& to) {
+  const cv::Mat view = from.rowRange(0, to.rows * factor).colRange(0, to.cols * factor);
+  cv::resize(view, to, to.size(), 0, 0, cv::INTER_AREA);
+}
+
+}  // namespace
+
+LightField decimate(const LightField& lf, int factor) {
+  LightField small = decimatedSizes(lf, factor);
+  small.allocate(!lf.weights.empty());
+  parallelFor("survey decimation", cv::Range(0, int(small.views.size())), [&](const cv::Range& range) {
+    for (int v = range.start; v < range.end; ++v) {
+      shrink(lf.views[v], factor, small.views[v]);
+      if (!lf.weights.empty()) shrink(lf.weights[v], factor, small.weights[v]);
+    }
+  });
+  return small;
+}
+
+void decimateTwice(const LightField& lf, int first, int second,
+                   const std::vector<bool>& keepOnce, LightField& once, LightField& twice) {
+  const bool weighted = !lf.weights.empty();
+  once = decimatedSizes(lf, first);
+  twice = decimatedSizes(once, second);
+  twice.allocate(weighted);
+  const size_t count = size_t(lf.T) * lf.S;
+  CV_Assert(keepOnce.size() == count);
+  once.views.resize(count);
+  once.weights.resize(weighted ? count : 0);
+  for (size_t v = 0; v < count; ++v)
+    if (keepOnce[v]) {
+      once.views[v].create(once.V, once.U, CV_32F);
+      if (weighted) once.weights[v].create(once.V, once.U, CV_32F);
+    }
+  parallelFor("survey decimation", cv::Range(0, int(count)), [&](const cv::Range& range) {
+    cv::Mat value, weight;  // a view decimated once that `once` does not keep
+    for (int v = range.start; v < range.end; ++v) {
+      cv::Mat& a = keepOnce[v] ? once.views[v] : value;
+      a.create(once.V, once.U, CV_32F);
+      shrink(lf.views[v], first, a);
+      shrink(a, second, twice.views[v]);
+      if (!weighted) continue;
+      cv::Mat& w = keepOnce[v] ? once.weights[v] : weight;
+      w.create(once.V, once.U, CV_32F);
+      shrink(lf.weights[v], first, w);
+      shrink(w, second, twice.weights[v]);
+    }
+  });
 }
 
 void checkMask(const cv::Mat& mask, cv::Size viewSize) {

@@ -51,6 +51,13 @@ double conversionBytes(const cv::Mat& input, const LightField& lf);
 /// weights are averaged alike, so sum(w L) / sum(w) keeps its meaning.
 LightField decimate(const LightField& lf, int factor);
 
+/// decimate(decimate(lf, first), second) into `twice`, and of decimate(lf, first) only
+/// the views (and weights) `keepOnce` marks (T * S flags, LightField layout) into
+/// `once`, the others left empty: the same values as the two calls, without holding
+/// every view decimated once.
+void decimateTwice(const LightField& lf, int first, int second,
+                   const std::vector<bool>& keepOnce, LightField& once, LightField& twice);
+
 /// Validates a detection mask against the centre view size: empty, or CV_8UC1 of V x U.
 void checkMask(const cv::Mat& mask, cv::Size viewSize);
 

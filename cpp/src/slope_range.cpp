@@ -337,11 +337,17 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
   while (coarsest < kCoarsestDecimation && side / (coarsest * 2) >= kCoarsestSurveyView)
     coarsest *= 2;
   // The plane sweep's light field (decimated half as much as the finest level: fine
-  // textures survive there) and the levels', finest first, each from the last (one pass
-  // over the full light field in all).
+  // textures survive there; only the views the sweep reads are kept) and the levels',
+  // finest first, each from the last (one pass over the full light field in all).
   const int sweepFactor = finest / 2;
-  const LightField sweepLevel = sweepFactor > 1 ? decimate(lf, sweepFactor) : lf;
-  std::vector<LightField> levels{decimate(sweepLevel, finest / sweepFactor)};
+  LightField decimatedForSweep, finestLevel;
+  if (sweepFactor > 1)
+    decimateTwice(lf, sweepFactor, finest / sweepFactor, sweptViews(lf.T, lf.S),
+                  decimatedForSweep, finestLevel);
+  else
+    finestLevel = decimate(lf, finest);
+  const LightField& sweepLevel = sweepFactor > 1 ? decimatedForSweep : lf;
+  std::vector<LightField> levels{std::move(finestLevel)};
   for (int f = finest * 2; f <= coarsest; f *= 2) levels.push_back(decimate(levels.back(), 2));
   const SlopeIntervals all{{std::max(lo, -reach), std::min(hi, reach)}};
   const SlopeIntervals textures =

@@ -236,6 +236,13 @@ cv::Mat windowResponse(const cv::Mat& reference) {
 
 }  // namespace
 
+std::vector<bool> sweptViews(int T, int S) {
+  std::vector<bool> swept(size_t(T) * S, false);
+  for (int t = 0; t < T; ++t) swept[size_t(t) * S + S / 2] = true;
+  for (int s = 0; s < S; ++s) swept[size_t(T / 2) * S + s] = true;
+  return swept;
+}
+
 SlopeIntervals sweepSlopes(const LightField& lf, double lo, double hi, float minResponse) {
   const std::vector<Compared> views = comparedViews(lf);
   if (views.empty() || !(lo <= hi)) return {};

@@ -29,5 +29,9 @@ using SlopeIntervals = std::vector<std::pair<double, double>>;
 /// under half the largest are passed over for the outermost usable ones. `lf` may be decimated: slopes are in its own pixels per view step.
 SlopeIntervals sweepSlopes(const LightField& lf, double lo, double hi, float minResponse);
 
+/// The views sweepSlopes reads (T * S flags, LightField layout): the reference view's
+/// row and column, T / 2 and S / 2; the others may be left empty.
+std::vector<bool> sweptViews(int T, int S);
+
 }  // namespace detail
 }  // namespace liff

@@ -124,3 +124,32 @@ TEST(SlopeSweep, IgnoresSamplesWhoseAlphaIsLow) {
 }
 
 }  // namespace
+
+// The survey decimates twice in one pass, keeping of the first decimation only the views
+// the sweep reads (its row and column): the same values as two whole decimations.
+TEST(SlopeSweep, DecimatingTwiceInOnePassKeepsTheSweptViewsAndGivesTheSameLevels) {
+  for (bool weighted : {false, true}) {
+    liff::detail::LightField lf;
+    lf.T = 3;
+    lf.S = 5;
+    lf.V = 37;
+    lf.U = 50;
+    lf.allocate(weighted);
+    for (cv::Mat& view : lf.views) cv::randu(view, 0.f, 1.f);
+    for (cv::Mat& weight : lf.weights) cv::randu(weight, 0.f, 1.f);
+    const std::vector<bool> keep = liff::detail::sweptViews(lf.T, lf.S);
+    liff::detail::LightField once, twice;
+    liff::detail::decimateTwice(lf, 2, 2, keep, once, twice);
+    const liff::detail::LightField a = liff::detail::decimate(lf, 2);
+    const liff::detail::LightField b = liff::detail::decimate(a, 2);
+    ASSERT_EQ(twice.V, b.V);
+    ASSERT_EQ(twice.U, b.U);
+    for (size_t v = 0; v < lf.views.size(); ++v) {
+      EXPECT_EQ(cv::norm(twice.views[v], b.views[v], cv::NORM_INF), 0);
+      if (weighted) EXPECT_EQ(cv::norm(twice.weights[v], b.weights[v], cv::NORM_INF), 0);
+      EXPECT_EQ(once.views[v].empty(), !keep[v]);
+      if (keep[v]) EXPECT_EQ(cv::norm(once.views[v], a.views[v], cv::NORM_INF), 0);
+    }
+    EXPECT_EQ(std::count(keep.begin(), keep.end(), true), lf.T + lf.S - 1);
+  }
+}

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._processes import stop_now
+
 
 def _pair_pose(first, second, camera, ratio: float, seed: int):
     """One pair's (R, t, inlier index pairs (k, 2) uint32, covariance), or None where
@@ -84,10 +86,7 @@ def pair_poses(features, pairs, camera, ratio, seed, workers: int, progress) -> 
             if progress is not None:
                 progress()
     except BaseException:  # Ctrl-C, SIGTERM or a worker's error: stop now, not after the queue
-        processes = list((getattr(pool, "_processes", None) or {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
-        for process in processes:
-            process.terminate()
+        stop_now(pool)
         raise
     pool.shutdown()
     return results

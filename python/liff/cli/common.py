@@ -17,6 +17,7 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .._detector import PARAMETERS, LiFF
+from .._processes import stop_now
 from ..io.images import IMAGE_SUFFIXES
 
 FILE_ENDINGS = IMAGE_SUFFIXES + (".npz", ".npy", ".db")
@@ -519,10 +520,7 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
                 if progress:
                     progress.update()
         except BaseException:  # Ctrl-C, SIGTERM: stop now, not after the queued jobs
-            processes = list((getattr(pool, "_processes", None) or {}).values())
-            pool.shutdown(wait=False, cancel_futures=True)
-            for process in processes:
-                process.terminate()
+            stop_now(pool)
             raise
         pool.shutdown()
     if progress:

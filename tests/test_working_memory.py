@@ -104,3 +104,38 @@ def test_kept_memory_gives_what_fresh_memory_gives_with_weights_too(reuse_on):
         assert len(kept[0]) > 10
         assert_same_keypoints(kept[0], fresh[0])
         np.testing.assert_array_equal(kept[1], fresh[1])
+
+
+def _detect_in_child(lf, queue):
+    queue.put(len(liff.LiFF.create().detect(lf)))
+
+
+def test_a_process_forked_while_another_thread_detects_can_detect(reuse_on):
+    """fork() while a thread allocates: the child's first detection must not deadlock on
+    the working memory's lock (held across fork, pthread_atfork)."""
+    import multiprocessing
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("no fork on this platform")
+    lf = scene((3, 3, 64, 80), [0.0])
+    expected = len(liff.LiFF.create().detect(lf))
+    stop = threading.Event()
+
+    def busy():
+        while not stop.is_set():
+            detect(lf)
+
+    thread = threading.Thread(target=busy)
+    thread.start()
+    context = multiprocessing.get_context("fork")
+    try:
+        for _ in range(10):
+            queue = context.Queue()
+            child = context.Process(target=_detect_in_child, args=(lf, queue))
+            child.start()
+            child.join(60)
+            assert child.exitcode == 0, "the forked child hung or failed"
+            assert queue.get(timeout=5) == expected
+    finally:
+        stop.set()
+        thread.join()

@@ -8,6 +8,10 @@
 #include <mutex>
 #include <unordered_map>
 
+#if defined(__unix__) || defined(__APPLE__)
+#include <pthread.h>
+#endif
+
 namespace liff {
 namespace detail {
 namespace {
@@ -64,6 +68,11 @@ class ReusingAllocator : public cv::MatAllocator {
     freeBytes_ = 0;
     peakBytes_ = inUseBytes_;  // a later call sizes the reuse anew
   }
+
+  // Held across fork() (pthread_atfork), so that a child forked while another thread
+  // allocates does not inherit the lock held, and with it a deadlock on its first Mat.
+  void lockForFork() const { mutex_.lock(); }
+  void unlockAfterFork() const { mutex_.unlock(); }
 
   void beginCall() {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -166,6 +175,10 @@ void installWorkingMemory() {
   std::call_once(installed, [] {
     std::lock_guard<std::mutex> lock(settingMutex);
     if (reuseWanted) cv::Mat::setDefaultAllocator(&allocator());
+#if defined(__unix__) || defined(__APPLE__)
+    pthread_atfork([] { allocator().lockForFork(); }, [] { allocator().unlockAfterFork(); },
+                   [] { allocator().unlockAfterFork(); });
+#endif
   });
   allocator().beginCall();
 }

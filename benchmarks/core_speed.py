@@ -250,6 +250,15 @@ def main(argv=None) -> int:
               f"(medians {statistics.median(t2['one']):.3f} and {statistics.median(t2['two']):.3f} s)")
         if hasattr(core, "_parallel_loops"):
             stage_model(default, lf)
+        else:  # a core from before the loop profiler: its stages only
+            liff.setNumThreads(1)
+            core._set_profiling(True)
+            core._reset_profile()
+            wall = seconds(lambda: default.detectAndCompute(lf, None))
+            stages = core._stage_seconds()
+            core._set_profiling(False)
+            print(f"\none thread, profiled: wall {wall:.3f} s; " + ", ".join(
+                f"{name} {s:.3f} s" for name, s in stages.items()))
         liff.setNumThreads(1)
         views = [centre_view(lf[i:i + 1, j:j + 1]) for i in range(lf.shape[0])
                  for j in range(lf.shape[1])]

@@ -1,8 +1,12 @@
 """cv2.FileStorage persistence: save/read/write round trips and validation on read."""
 
 import pathlib
+import subprocess
+import sys
+import textwrap
 
 import cv2
+import numpy as np
 import pytest
 
 import liff
@@ -172,3 +176,131 @@ def test_unwritable_destinations(tmp_path, custom):
         custom.save(str(tmp_path / "no" / "such" / "dir" / "p.yml"))
     with pytest.raises(TypeError, match="FileStorage"):
         custom.write(3.5)
+
+
+# --- hostile parameter files: deep nesting, size -----------------------------------------
+
+def nested(kind, n):
+    """A FileStorage document whose entry `a` is nested n levels deep."""
+    if kind == "yaml-indent":
+        return "%YAML:1.0\n---\n" + "".join(" " * i + "a:\n" for i in range(n)) + " " * n + "1\n"
+    return {
+        "yaml": "%YAML:1.0\n---\na: " + "[" * n + "]" * n + "\n",
+        "yaml-map": "%YAML:1.0\n---\na: " + "{b: " * n + "1" + "}" * n + "\n",
+        "yaml-block": "%YAML:1.0\n---\na: " + "- " * n + "1\n",
+        "yaml-keys": "%YAML:1.0\n---\n" + "a:" * n + " 1\n",
+        "json": '{"a": ' + "[" * n + "]" * n + "}\n",
+        "xml": '<?xml version="1.0"?>\n<opencv_storage>' + "<a>" * n + "</a>" * n + "</opencv_storage>\n",
+    }[kind]
+
+
+NESTED_KINDS = ["yaml", "yaml-map", "yaml-block", "yaml-keys", "yaml-indent", "json", "xml"]
+SUFFIX = {"json": ".json", "xml": ".xml"}
+
+
+@pytest.mark.parametrize("kind", NESTED_KINDS)
+def test_nesting_beyond_the_limit_is_refused(tmp_path, custom, kind):
+    path = tmp_path / ("deep" + SUFFIX.get(kind, ".yml"))
+    path.write_text(nested(kind, 100))
+    before = params(custom)
+    with pytest.raises(ValueError, match=r"nest.*64"):
+        custom.read(str(path))
+    assert params(custom) == before
+
+
+@pytest.mark.parametrize("kind", NESTED_KINDS)
+def test_nesting_within_the_limit_is_read(tmp_path, custom, kind):
+    path = tmp_path / ("shallow" + SUFFIX.get(kind, ".yml"))
+    text = nested(kind, 20)
+    if kind == "json":
+        text = text.replace('{"a": ', '{"nfeatures": 5, "a": ')
+    elif kind == "xml":
+        text = text.replace("<opencv_storage>", "<opencv_storage><nfeatures>5</nfeatures>")
+    else:
+        text = text.replace("---\n", "---\nnfeatures: 5\n")
+    path.write_text(text)
+    custom.read(str(path))
+    assert custom.getNFeatures() == 5
+
+
+DEEP_READ = textwrap.dedent(
+    """
+    import sys, liff
+    d = liff.LiFF.create()
+    try:
+        d.read(sys.argv[1])
+    except ValueError as e:
+        print("ValueError:", e)
+    """
+)
+
+
+@pytest.mark.parametrize("kind", ["yaml", "yaml-block", "yaml-keys", "json", "xml"])
+def test_very_deep_file_does_not_crash_the_interpreter(tmp_path, kind):
+    # OpenCV's FileStorage parsers recurse once per level: 75,000 levels (150 KB)
+    # overflowed the stack (SIGSEGV) before read() checked the nesting itself.
+    path = tmp_path / ("deep" + SUFFIX.get(kind, ".yml"))
+    path.write_text(nested(kind, 100_000))
+    proc = subprocess.run([sys.executable, "-c", DEEP_READ, str(path)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, f"rc={proc.returncode}\nstdout={proc.stdout}\nstderr={proc.stderr}"
+    assert "ValueError:" in proc.stdout and "nest" in proc.stdout
+
+
+def test_strings_and_comments_do_not_count_as_nesting(tmp_path, custom):
+    path = tmp_path / "commented.yml"
+    path.write_text("%YAML:1.0\n---\n# ]]]] }}}} <a><a>\nnote: \"]]]]]]\"\n"
+                    "a: [ 1, [ 2, 3 ] ] # [[[[\nnfeatures: 4\n")
+    custom.read(str(path))
+    assert custom.getNFeatures() == 4
+    # a closing bracket in a comment or a string closes nothing
+    path.write_text("%YAML:1.0\n---\na: " + "[ # ]\n" * 100 + "]" * 100 + "\n")
+    with pytest.raises(ValueError, match="nest"):
+        custom.read(str(path))
+    path = tmp_path / "commented.json"
+    path.write_text('{ "a": ' + '[ "]", /* ] */\n' * 100 + '1' + ']' * 100 + "}\n")
+    with pytest.raises(ValueError, match="nest"):
+        custom.read(str(path))
+
+
+def test_file_larger_than_the_limit_is_refused_before_parsing(tmp_path, custom):
+    path = tmp_path / "huge.yml"
+    with open(path, "w") as f:
+        f.write("%YAML:1.0\n---\nnfeatures: 3\n")
+        f.write(("# " + "x" * 77 + "\n") * (2 << 20 >> 6))  # 2.5 MiB of comments
+    before = params(custom)
+    with pytest.raises(ValueError, match=r"MiB|bytes"):
+        custom.read(str(path))
+    assert params(custom) == before
+
+
+def test_matrices_and_nested_algorithm_files_are_read(tmp_path, custom):
+    # what FileStorage writes beside parameters (a matrix) is within the limits
+    for ext in EXTENSIONS:
+        path = str(tmp_path / f"with_matrix.{ext}")
+        fs = cv2.FileStorage(path, cv2.FILE_STORAGE_WRITE)
+        fs.write("K", np.eye(3))
+        custom.write(fs)
+        fs.release()
+        d = liff.LiFF.create()
+        d.read(path)
+        assert params(d) == params(custom), ext
+
+
+def test_checks_stay_linear_on_a_file_at_the_size_limit(tmp_path, custom):
+    import time
+    path = tmp_path / "long.yml"
+    path.write_text("%YAML:1.0\n---\nnfeatures: 3\n" + "#\n" * 500_000)
+    start = time.perf_counter()
+    custom.read(str(path))
+    assert custom.getNFeatures() == 3 and time.perf_counter() - start < 5
+
+
+def test_only_a_regular_file_is_read(tmp_path, custom):
+    import os
+    fifo = tmp_path / "p.yml"
+    os.mkfifo(fifo)  # opening it would block until a writer came
+    with pytest.raises(ValueError, match="not a regular file"):
+        custom.read(str(fifo))
+    with pytest.raises(ValueError, match="not a regular file"):
+        custom.read(str(tmp_path))

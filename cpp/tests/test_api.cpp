@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <functional>
 #include <string>
 #include <vector>
@@ -269,3 +271,61 @@ TEST(Persistence, ReadOfABadValueThrowsAndChangesNothing) {
 }
 
 }  // namespace
+
+// --- hostile parameter files (liff/parameter_file.hpp) -------------------------------------
+
+namespace {
+
+std::string repeat(const std::string& s, int n) {
+  std::string out;
+  for (int i = 0; i < n; ++i) out += s;
+  return out;
+}
+
+std::string deepYaml(int n) {
+  return "%YAML:1.0\n---\na: " + std::string(n, '[') + std::string(n, ']') + "\n";
+}
+
+}  // namespace
+
+TEST(ParameterFile, NestingBeyondTheLimitIsRefusedBeforeOpenCVParsesIt) {
+  // 100,000 levels overflow the stack of OpenCV's recursive parser (SIGSEGV)
+  for (const std::string& text :
+       {deepYaml(100000), "%YAML:1.0\n---\na: " + std::string(200000, '-') + "\n",
+        "{\"a\": " + std::string(100000, '[') + "}",
+        "<?xml version=\"1.0\"?>\n<opencv_storage>" + repeat("<a>", 100000)})
+    EXPECT_TRUE(throwsWith([&] { liff::openParameterText(text, "deep"); }, "nests more than 64"));
+  EXPECT_NO_THROW(liff::openParameterText(deepYaml(30), "shallow"));
+}
+
+TEST(ParameterFile, ReadOfAPathChecksTheFileAndHidesFeature2DRead) {
+  const std::string path = ::testing::TempDir() + "liff_deep.yml";
+  {
+    std::ofstream out(path);
+    out << deepYaml(100000);
+  }
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create(7);
+  EXPECT_TRUE(throwsWith([&] { d->read(path); }, "nests more than 64"));
+  EXPECT_TRUE(throwsWith([&] { d->read(path + ".missing"); }, "no parameter file"));
+  EXPECT_TRUE(throwsWith([&] { d->read(::testing::TempDir()); }, "not a regular file"));
+  {
+    std::ofstream out(path);
+    out << "%YAML:1.0\n---\nnfeatures: 3\n";
+  }
+  d->read(path);
+  EXPECT_EQ(d->getNFeatures(), 3);
+  std::remove(path.c_str());
+}
+
+TEST(ParameterFile, SizeAndBinaryContentAreRefused) {
+  EXPECT_TRUE(throwsWith(
+      [&] {
+        liff::checkParameterText("%YAML:1.0\n---\n" + std::string(2 << 20, ' ') + "\n", "big");
+      },
+      "larger than 1048576 bytes"));
+  EXPECT_TRUE(throwsWith([&] { liff::checkParameterText(std::string("%YAML:1.0\na: 1\0", 15), "nul"); }, "NUL"));
+  EXPECT_TRUE(throwsWith(
+      [&] { liff::checkParameterText("%YAML:1.0\na: !!binary |\n  ]]]]\n", "b"); }, "base64"));
+  EXPECT_TRUE(
+      throwsWith([&] { liff::checkParameterText("%YAML:1.0\r---\n", "cr"); }, "carriage return"));
+}

@@ -340,13 +340,14 @@ class LiFF(_core.LiFF):
         """Reads parameters from a path or a ``cv2.FileNode`` (written by save/write).
 
         Raises ValueError if the file cannot be read or a value is out of range; the
-        detector is unchanged then.
+        detector is unchanged then. A path must be a regular file of at most 1 MiB nested
+        at most 64 levels deep (docs/RELIABILITY.md), checked before OpenCV parses it.
         """
         if isinstance(source, (str, os.PathLike)):
             path = os.fspath(source)
-            if not os.path.isfile(path):
+            if not os.path.exists(path):
                 raise ValueError(f"cannot read LiFF parameters: no file '{path}'")
-            self._read_file(path)
+            self._read_file(path)  # refuses anything but a regular file
             return
         if not isinstance(source, cv2.FileNode):
             raise TypeError(f"read() got {type(source).__name__}; expected a path or cv2.FileNode")

@@ -304,3 +304,56 @@ def test_only_a_regular_file_is_read(tmp_path, custom):
         custom.read(str(fifo))
     with pytest.raises(ValueError, match="not a regular file"):
         custom.read(str(tmp_path))
+
+
+# --- values as the file writes them: no wrapping, no NaN booleans -------------------------
+
+WRAPPING = {
+    "int 2^32 + 1": ("nfeatures", "4294967297"),
+    "int beyond long": ("nfeatures", "99999999999999999999999"),
+    "int 2^31": ("nOctaveLayers", "2147483648"),
+    "negative beyond int": ("numSlopes", "-2147483649"),
+    "hex beyond int": ("descriptorType", "0x100000005"),
+    "bool 2^32 + 1": ("rootSift", "4294967297"),
+}
+
+
+@pytest.mark.parametrize("ext", EXTENSIONS)
+@pytest.mark.parametrize("key, value", WRAPPING.values(), ids=WRAPPING.keys())
+def test_integers_beyond_an_int_are_refused_as_written(tmp_path, custom, ext, key, value):
+    # OpenCV's parser wraps them (4294967297 -> 1) before read() sees the node
+    path = tmp_path / f"wrap.{ext}"
+    path.write_text({
+        "yml": f"%YAML:1.0\n---\n{key}: {value}\n",
+        "yaml": f"%YAML:1.0\n---\nFeature2D.LiFF:\n   {key}: {value}\n",
+        "json": f'{{\n    "{key}": {value}\n}}\n',
+        "xml": f'<?xml version="1.0"?>\n<opencv_storage>\n<{key}>{value}</{key}>\n</opencv_storage>\n',
+    }[ext])
+    before = params(custom)
+    with pytest.raises(ValueError, match=rf"{key} = {value}\b"):
+        custom.read(str(path))
+    assert params(custom) == before
+
+
+@pytest.mark.parametrize("value", [".nan", ".inf", "2", "-1", "0.5"])
+def test_booleans_only_from_0_or_1(tmp_path, custom, value):
+    path = tmp_path / "bool.yml"
+    path.write_text(f"%YAML:1.0\n---\nrootSift: {value}\n")
+    before = params(custom)
+    with pytest.raises(ValueError, match=r"rootSift = .*expected 0 or 1"):
+        custom.read(str(path))
+    assert params(custom) == before
+    path.write_text("%YAML:1.0\n---\nrootSift: 0\nnfeatures: 2147483647\n")
+    custom.read(str(path))
+    assert not custom.getRootSift() and custom.getNFeatures() == 2147483647
+
+
+def test_integers_beyond_an_int_through_a_file_node(tmp_path, custom):
+    # cv2 may read 4294967297 as a 64-bit integer: refused, not wrapped nor taken as true
+    path = tmp_path / "wrap.yml"
+    path.write_text("%YAML:1.0\n---\nnfeatures: 4294967297\n")
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    before = params(custom)
+    with pytest.raises(ValueError, match=r"nfeatures = 4294967297\b"):
+        custom.read(fs.root())
+    assert params(custom) == before

@@ -9,10 +9,16 @@
 // differ from OpenCV's (after a quote, a backslash, a YAML tag or comment).
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
+#include <climits>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <liff/parameter_file.hpp>
+#include <liff/parameters.hpp>
+#include <type_traits>
 #include <vector>
 
 namespace liff {
@@ -103,7 +109,8 @@ void scanJson(const std::string& text, std::size_t start, const std::string& sou
 // collections: each '-' that starts a token and each key (text before a ':') may open
 // one at its column; a line that starts at a column closes those to its right, as in
 // OpenCV (unless inside a flow, where lines close nothing). Several may open on one
-// line ("- - - x", "a: b: c: x").
+// line ("- - - x", "a: b: c: x", "!tag - !tag - x"). A token starts a line, or follows
+// a key's ':', a '-' or a type tag, and spaces.
 void scanYaml(const std::string& text, std::size_t start, const std::string& source) {
   const Depth limit(source);
   std::vector<std::size_t> blocks;  // columns of the block collections that may be open
@@ -141,6 +148,11 @@ void scanYaml(const std::string& text, std::size_t start, const std::string& sou
         flow = std::max(0, flow - 1);
       }
       if (i < token) continue;
+      if (i == token && c == '!') {  // a type tag: the value starts after it
+        const std::size_t space = std::min(end, text.find(' ', i));
+        token = std::min(end, text.find_first_not_of(' ', space));
+        continue;
+      }
       if ((i == token && c == '-') || c == ':') {
         open((c == '-' ? i : token) - begin);
         token = text.find_first_not_of(' ', i + 1);
@@ -171,6 +183,45 @@ void scanXml(const std::string& text, std::size_t start, const std::string& sour
       depth = std::max(0, depth - 1);
     }
   }
+}
+
+// OpenCV's parsers read an integer with (int)strtol, which wraps silently
+// (4294967297 -> 1, 99999999999999999999999 -> -1): each integer parameter `key`
+// written as an integer anywhere in `text` ("key: v", "\"key\": v", "<key>v") must
+// fit an int. Its own range is Parameters::check's, on the value read.
+void checkIntegerAsWritten(const std::string& text, const std::string& key,
+                           const std::string& source) {
+  const auto nameChar = [](char c) { return std::isalnum((unsigned char)c) || c == '_'; };
+  for (std::size_t at = text.find(key); at != std::string::npos; at = text.find(key, at + 1)) {
+    std::size_t i = at + key.size();
+    if ((at > 0 && nameChar(text[at - 1])) || (i < text.size() && nameChar(text[i]))) continue;
+    const bool xml = at > 0 && text[at - 1] == '<';
+    if (!xml && i < text.size() && text[i] == '"') ++i;  // a JSON key's closing quote
+    i = std::min(text.size(), text.find_first_not_of(" \t", i));
+    if (i == text.size() || text[i] != (xml ? '>' : ':')) continue;
+    i = std::min(text.size(), text.find_first_not_of(xml ? " \t\r\n" : " \t", i + 1));
+    std::size_t end = i;
+    while (end < text.size() && !std::strchr(" \t\r\n,}]#<\"'", text[end])) ++end;
+    const std::string token = text.substr(i, end - i);
+    // An integer to OpenCV: a sign, digits, and no '.' or 'e' after them (else a real).
+    const std::size_t digits = token.find_first_not_of("+-") == 1 ? 1 : 0;
+    if (token.size() <= digits || !std::isdigit((unsigned char)token[digits])) continue;
+    const std::size_t after = token.find_first_not_of("0123456789", digits);
+    if (after != std::string::npos && (token[after] == '.' || token[after] == 'e')) continue;
+    errno = 0;
+    const long long value = std::strtoll(token.c_str(), nullptr, 0);
+    if (errno == ERANGE || value < INT_MIN || value > INT_MAX)
+      refuse(source, cv::format("sets %s = %s, which does not fit an int; expected an integer "
+                                "in [%d, %d] (and in %s's range)",
+                                key.c_str(), token.c_str(), INT_MIN, INT_MAX, key.c_str()));
+  }
+}
+
+void checkIntegersAsWritten(const std::string& text, const std::string& source) {
+#define LIFF_CHECK_INTEGER(Type, name, Name, initial, help) \
+  if (!std::is_floating_point<Type>::value) checkIntegerAsWritten(text, #name, source);
+  LIFF_PARAMETERS(LIFF_CHECK_INTEGER)
+#undef LIFF_CHECK_INTEGER
 }
 
 }  // namespace
@@ -226,6 +277,7 @@ cv::FileStorage openParameterText(const std::string& text, const std::string& so
   }
   if (!fs.isOpened())
     refuse(source, "cannot be parsed; expected an OpenCV FileStorage document (YAML, JSON or XML)");
+  checkIntegersAsWritten(text, source);
   return fs;
 }
 

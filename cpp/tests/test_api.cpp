@@ -293,7 +293,9 @@ TEST(ParameterFile, NestingBeyondTheLimitIsRefusedBeforeOpenCVParsesIt) {
   for (const std::string& text :
        {deepYaml(100000), "%YAML:1.0\n---\na: " + std::string(200000, '-') + "\n",
         "{\"a\": " + std::string(100000, '[') + "}",
-        "<?xml version=\"1.0\"?>\n<opencv_storage>" + repeat("<a>", 100000)})
+        "<?xml version=\"1.0\"?>\n<opencv_storage>" + repeat("<a>", 100000),
+        // found by fuzzing the check against OpenCV: type tags before block sequences
+        "%YAML:1.0\n---\n" + repeat("!}  -", 100000), "%YAML:1.0\n---\n" + repeat("    -!- ", 60000)})
     EXPECT_TRUE(throwsWith([&] { liff::openParameterText(text, "deep"); }, "nests more than 64"));
   EXPECT_NO_THROW(liff::openParameterText(deepYaml(30), "shallow"));
 }
@@ -328,4 +330,23 @@ TEST(ParameterFile, SizeAndBinaryContentAreRefused) {
       [&] { liff::checkParameterText("%YAML:1.0\na: !!binary |\n  ]]]]\n", "b"); }, "base64"));
   EXPECT_TRUE(
       throwsWith([&] { liff::checkParameterText("%YAML:1.0\r---\n", "cr"); }, "carriage return"));
+}
+
+TEST(ParameterFile, IntegersBeyondAnIntAndNonBinaryBooleansAreRefusedAsWritten) {
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create(7);
+  const auto read = [&](const std::string& text) {
+    d->read(liff::openParameterText(text, "parameters").root());
+  };
+  EXPECT_TRUE(throwsWith([&] { read("%YAML:1.0\n---\nnfeatures: 4294967297\n"); },
+                         "nfeatures = 4294967297, which does not fit an int"));
+  EXPECT_TRUE(throwsWith([&] { read("{\n  \"nfeatures\": 99999999999999999999999\n}\n"); },
+                         "nfeatures = 99999999999999999999999"));
+  EXPECT_TRUE(throwsWith([&] { read("%YAML:1.0\n---\nrootSift: .nan\n"); },
+                         "rootSift = nan; expected 0 or 1"));
+  EXPECT_TRUE(throwsWith([&] { read("%YAML:1.0\n---\nnOctaveLayers: 1e10\n"); },
+                         "nOctaveLayers = 10000000000; expected an integer"));
+  EXPECT_EQ(d->getNFeatures(), 7);
+  read("%YAML:1.0\n---\nnfeatures: 2147483647\nrootSift: 1\n");
+  EXPECT_EQ(d->getNFeatures(), 2147483647);
+  EXPECT_TRUE(d->getRootSift());
 }

@@ -100,7 +100,10 @@ def _copy_scalars(node: "cv2.FileNode", fs: "cv2.FileStorage") -> None:
         if child.isString():
             fs.write(key, child.string())
         elif child.isInt():
-            fs.write(key, int(child.real()))
+            # cv2 may hold a 64-bit integer, and its write() takes a C int (it wrote
+            # 4294967297 as `true`): one beyond an int goes as a real, which read() refuses
+            value = int(child.real())
+            fs.write(key, value if -2**31 <= value < 2**31 else float(value))
         elif child.isReal():
             fs.write(key, child.real())
 

@@ -550,3 +550,44 @@ def test_non_native_byte_order_is_read_as_native(tmp_path, dtype):
     if native == np.uint16:  # writable as images once in native order
         io.write_mosaic(tmp_path / "m.png", lf)
         np.testing.assert_array_equal(io.read_mosaic(tmp_path / "m.png", (2, 2)).light_field, lf)
+
+
+# --- only regular files and folders: a FIFO would block the reader forever ---------------
+
+FIFO_READERS = {
+    "read_light_field .npz": ("lf.npz", lambda p: io.read_light_field(p)),
+    "read_light_field .npy": ("lf.npy", lambda p: io.read_light_field(p)),
+    "read_light_field .mat": ("lf.mat", lambda p: io.read_light_field(p)),
+    "read_light_field .h5": ("lf.h5", lambda p: io.read_light_field(p)),
+    "read_light_field mosaic": ("m.png", lambda p: io.read_light_field(p, format="mosaic", grid=(2, 2))),
+    "read_numpy": ("lf.npz", io.read_numpy),
+    "read_pfm": ("d.pfm", io.read_pfm),
+    "read_eslf": ("a.eslf.png", io.read_eslf),
+    "read_mat": ("lf.mat", io.read_mat),
+    "read_hdf5": ("lf.h5", io.read_hdf5),
+}
+
+
+@pytest.mark.parametrize("name, call", FIFO_READERS.values(), ids=FIFO_READERS.keys())
+def test_a_fifo_is_refused_without_opening_it(tmp_path, name, call):
+    from lfhelpers import Fifo
+    with Fifo(tmp_path / name) as fifo:
+        with pytest.raises(ValueError, match=rf"{re.escape(fifo.path)}: is a FIFO"):
+            call(fifo.path)
+    assert fifo.opened == 0
+
+
+@pytest.mark.parametrize("kind", ["views", "hci"])
+def test_a_fifo_among_the_views_is_refused_without_opening_it(tmp_path, kind):
+    from lfhelpers import Fifo
+    lf = coded_lf((2, 2, 8, 8, 3))
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    names = ([f"input_Cam{i:03d}.png" for i in range(4)] if kind == "hci" else
+             [f"v_{t:02d}_{s:02d}.png" for t in range(2) for s in range(2)])
+    for name, view in zip(names[:3], lf.reshape(4, 8, 8, 3)):
+        cv2.imwrite(str(folder / name), view)
+    with Fifo(folder / names[3]) as fifo:
+        with pytest.raises(ValueError, match="is a FIFO"):
+            io.read_light_field(folder)
+    assert fifo.opened == 0

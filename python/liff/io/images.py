@@ -13,6 +13,8 @@ from typing import Union
 import cv2
 import numpy as np
 
+from .._paths import refuse_special
+
 PathLike = Union[str, os.PathLike]
 
 #: dtypes a light field may have (as the detector accepts them, see docs/CONVENTIONS.md)
@@ -45,6 +47,7 @@ def read_image(path: PathLike) -> np.ndarray:
         does not accept (e.g. a signed-integer TIFF).
     """
     path = os.fspath(path)
+    refuse_special(path, "an image")
     if not os.path.isfile(path):
         raise ValueError(f"{path}: no such file; expected an image")
     image = cv2.imread(path, cv2.IMREAD_UNCHANGED)

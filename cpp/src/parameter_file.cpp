@@ -106,11 +106,12 @@ void scanJson(const std::string& text, std::size_t start, const std::string& sou
 // YAML (OpenCV's subset). Flow collections: [ and { open; ] and } close only before
 // the first #, quote or ! of their line (comments, quoted strings, type tags) and
 // when no ':' follows on the line (a key of a flow map may hold brackets). Block
-// collections: each '-' that starts a token and each key (text before a ':') may open
-// one at its column; a line that starts at a column closes those to its right, as in
-// OpenCV (unless inside a flow, where lines close nothing). Several may open on one
-// line ("- - - x", "a: b: c: x", "!tag - !tag - x"). A token starts a line, or follows
-// a key's ':', a '-' or a type tag, and spaces.
+// collections: each '-' after a space, ':' or '-' (or first on its line) and each ':'
+// may open one, at a column no further right than OpenCV's (a '-' at its own, a key
+// where the text after the previous '-' or ':' begins); a line that starts at a column
+// closes those to its right, as in OpenCV (unless inside a flow, where lines close
+// nothing). Several may open on one line ("- - - x", "a: b: c: x", "!t - !t - x",
+// "!x: !x: 1": a value may have one type tag, then a key).
 void scanYaml(const std::string& text, std::size_t start, const std::string& source) {
   const Depth limit(source);
   std::vector<std::size_t> blocks;  // columns of the block collections that may be open
@@ -137,7 +138,9 @@ void scanYaml(const std::string& text, std::size_t start, const std::string& sou
       if (blocks.empty() || column > blocks.back()) blocks.push_back(column);
       limit.check(int(blocks.size()) + flow, line + 1);
     };
-    std::size_t token = blank || comment ? end : first;  // where the current token starts
+    // Where the value being read may start: the line's first character, or just after
+    // a '-' or ':' that may have opened a collection (at most as far right as OpenCV's).
+    std::size_t from = first;
     for (std::size_t i = begin; i < end; ++i) {
       const char c = text[i];
       if (c == '[' || c == '{') {
@@ -147,16 +150,14 @@ void scanYaml(const std::string& text, std::size_t start, const std::string& sou
                  (!colonAfter || i > lastColon)) {
         flow = std::max(0, flow - 1);
       }
-      if (i < token) continue;
-      if (i == token && c == '!') {  // a type tag: the value starts after it
-        const std::size_t space = std::min(end, text.find(' ', i));
-        token = std::min(end, text.find_first_not_of(' ', space));
-        continue;
-      }
-      if ((i == token && c == '-') || c == ':') {
-        open((c == '-' ? i : token) - begin);
-        token = text.find_first_not_of(' ', i + 1);
-        if (token == std::string::npos) token = end;
+      if (blank || comment) continue;
+      const char before = i == first ? ' ' : text[i - 1];
+      if (c == '-' && (before == ' ' || before == '\t' || before == ':' || before == '-')) {
+        open(i - begin);  // a block sequence: its column is the '-'
+        from = i + 1;
+      } else if (c == ':') {
+        open(from - begin);  // a key, which starts at or after `from`
+        from = i + 1;
       }
     }
     begin = end + 1;

@@ -295,7 +295,8 @@ TEST(ParameterFile, NestingBeyondTheLimitIsRefusedBeforeOpenCVParsesIt) {
         "{\"a\": " + std::string(100000, '[') + "}",
         "<?xml version=\"1.0\"?>\n<opencv_storage>" + repeat("<a>", 100000),
         // found by fuzzing the check against OpenCV: type tags before block sequences
-        "%YAML:1.0\n---\n" + repeat("!}  -", 100000), "%YAML:1.0\n---\n" + repeat("    -!- ", 60000)})
+        "%YAML:1.0\n---\n" + repeat("!}  -", 100000), "%YAML:1.0\n---\n" + repeat("    -!- ", 60000),
+        "%YAML:1.0\n---\n" + repeat("!x: ", 100000), "%YAML:1.0\n---\na: " + repeat("/:- !/>", 60000)})
     EXPECT_TRUE(throwsWith([&] { liff::openParameterText(text, "deep"); }, "nests more than 64"));
   EXPECT_NO_THROW(liff::openParameterText(deepYaml(30), "shallow"));
 }

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..camera import HCI_CAMERA_KEYS, LightFieldCamera
 from ._shared import describe_missing
+from .images import decode_image
 from .pfm import read_pfm
 from .._paths import refuse_special
 
@@ -110,7 +111,7 @@ def read_hci(folder: PathLike) -> HciScene:
     lf = None
     for index in range(T * S):
         refuse_special(views[index], "an HCI view (PNG image)")
-        image = cv2.imread(views[index], cv2.IMREAD_COLOR)
+        image = decode_image(views[index], cv2.IMREAD_COLOR)
         if image is None:
             raise ValueError(f"{views[index]}: unreadable image")
         if first is None:

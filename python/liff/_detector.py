@@ -350,7 +350,12 @@ class LiFF(_core.LiFF):
             path = os.fspath(source)
             if not os.path.exists(path):
                 raise ValueError(f"cannot read LiFF parameters: no file '{path}'")
-            self._read_file(path)  # refuses anything but a regular file
+            try:
+                self._read_file(path)  # refuses anything but a regular file
+            except ValueError as error:  # (a value out of range: name the file too)
+                if path in str(error):
+                    raise
+                raise ValueError(f"{path}: {error}") from None
             return
         if not isinstance(source, cv2.FileNode):
             raise TypeError(f"read() got {type(source).__name__}; expected a path or cv2.FileNode")

@@ -4,10 +4,16 @@
 
 #include <gtest/gtest.h>
 
+#ifdef __linux__
+#include <sys/wait.h>
+#include <unistd.h>
+#endif
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <functional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -351,3 +357,46 @@ TEST(ParameterFile, IntegersBeyondAnIntAndNonBinaryBooleansAreRefusedAsWritten) 
   EXPECT_EQ(d->getNFeatures(), 2147483647);
   EXPECT_TRUE(d->getRootSift());
 }
+
+#ifdef __linux__
+// The check's bound against OpenCV's parser itself: documents of a random short
+// pattern repeated to 400 KB (deep enough to overflow its stack if the pattern nests),
+// and every one the check passes parsed in a child process, which must not crash.
+TEST(ParameterFile, NoDocumentTheCheckPassesCrashesOpenCVsParser) {
+  const std::vector<std::string> tokens = {
+      "[", "]", "{", "}", ":", "-", " ", "\n", "'", "\"", "#", "!", "\\", "/", "*", ",", "a",
+      "<a>", "</a>", "<!--", "-->", "/>", "x: ", "- ", "  ", "1", "!!str ", "\"k\": ", "/*"};
+  const std::vector<std::string> heads = {"%YAML:1.0\n---\n", "{", "%YAML:1.0\n---\na: ",
+                                          "<?xml version=\"1.0\"?>\n<opencv_storage>",
+                                          "{\"a\": "};
+  std::mt19937 random(1);
+  int parsed = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    std::string pattern;
+    for (int k = 1 + int(random() % 5); k > 0; --k) pattern += tokens[random() % tokens.size()];
+    std::string text = heads[random() % heads.size()];
+    while (text.size() < 400000) text += pattern;
+    try {
+      liff::checkParameterText(text, "fuzz");
+    } catch (const cv::Exception&) {
+      continue;  // refused: never reaches OpenCV
+    }
+    ++parsed;
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      try {
+        cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+      } catch (...) {
+      }
+      _exit(0);
+    }
+    int status = 0;
+    waitpid(child, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status)) << "OpenCV's parser crashed on a document the check passed, "
+                                      "pattern ["
+                                   << pattern << "]";
+  }
+  EXPECT_GT(parsed, 100);
+}
+#endif

@@ -357,3 +357,11 @@ def test_integers_beyond_an_int_through_a_file_node(tmp_path, custom):
     with pytest.raises(ValueError, match=r"nfeatures = 4294967297\b"):
         custom.read(fs.root())
     assert params(custom) == before
+
+
+def test_a_file_node_with_other_keys_reads_the_parameters(custom):
+    # keys cv2's writer refuses ("a.b") had escaped as cv2.error from read(FileNode)
+    fs = cv2.FileStorage("%YAML:1.0\n---\na.b: 1\nc d: x\nnfeatures: 3\n",
+                         cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
+    custom.read(fs.root())
+    assert custom.getNFeatures() == 3

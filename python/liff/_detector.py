@@ -94,8 +94,12 @@ def _as_mask(mask) -> Optional[np.ndarray]:
 
 
 def _copy_scalars(node: "cv2.FileNode", fs: "cv2.FileStorage") -> None:
-    """Writes the string, int and real entries of the map ``node`` into ``fs``."""
+    """Writes the string, int and real entries of the map ``node`` that LiFF reads (its
+    parameters and ``name``) into ``fs`` (other keys may be names cv2's writer refuses)."""
+    read = {p.name for p in PARAMETERS} | {"name"}
     for key in node.keys():
+        if key not in read:
+            continue
         child = node.getNode(key)
         if child.isString():
             fs.write(key, child.string())

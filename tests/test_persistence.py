@@ -365,3 +365,30 @@ def test_a_file_node_with_other_keys_reads_the_parameters(custom):
                          cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
     custom.read(fs.root())
     assert custom.getNFeatures() == 3
+
+
+HANGING_LAYOUTS = {
+    "dash after a document end": "%YAML:1.0\n---\nnfeatures: 3\n...\n-x\n",
+    "root not at column 0": "%YAML:1.0\n -<\n]\n-\n",
+    "text after ---": "%YAML:1.0\n--- nfeatures: 3\n-x\n",
+    "tagged root": "%YAML:1.0\n---\n!!map a:},-\n---\n\n- [\n",
+}
+
+
+@pytest.mark.parametrize("text", HANGING_LAYOUTS.values(), ids=HANGING_LAYOUTS.keys())
+def test_a_yaml_layout_that_hangs_opencv_is_refused(tmp_path, text):
+    # OpenCV 4's YAML parser looped forever on these (its top level skips three
+    # characters after a document and then waits for "---")
+    path = tmp_path / "hang.yml"
+    path.write_text(text)
+    proc = subprocess.run([sys.executable, "-c", DEEP_READ, str(path)],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert "ValueError:" in proc.stdout and "column 0" in proc.stdout, proc.stdout
+
+
+def test_yaml_streams_as_opencv_writes_them_are_read(tmp_path, custom):
+    path = tmp_path / "two.yml"
+    path.write_text("%YAML:1.0\n---\nnfeatures: 3\n...\n---\nother: 1\n")
+    custom.read(str(path))
+    assert custom.getNFeatures() == 3

@@ -151,7 +151,7 @@ void scanYaml(const std::string& text, std::size_t start, const std::string& sou
         flow = std::max(0, flow - 1);
       }
       if (blank || comment) continue;
-      const char before = i == first ? ' ' : text[i - 1];
+      const char before = i > begin ? text[i - 1] : ' ';
       if (c == '-' && (before == ' ' || before == '\t' || before == ':' || before == '-')) {
         open(i - begin);  // a block sequence: its column is the '-'
         from = i + 1;
@@ -159,6 +159,53 @@ void scanYaml(const std::string& text, std::size_t start, const std::string& sou
         open(from - begin);  // a key, which starts at or after `from`
         from = i + 1;
       }
+    }
+    begin = end + 1;
+  }
+}
+
+// YAML's stream layout. OpenCV's top-level loop assumes that a document's root
+// collection ends at the end of the text or at a "..." line, skips three characters
+// there, and then loops forever on a '-' that does not start "---" ("a: 1\n...\n-x",
+// or " -x\n]\n-", whose root starts at column 1 and so ends early). So each document's
+// root starts at column 0 as a block map or sequence, nothing follows "---" or "..." on
+// their line, and a "..." is followed by "---", a directive or the end.
+void checkYamlLayout(const std::string& text, std::size_t start, const std::string& source) {
+  bool rootNext = true, endedDocument = false;
+  int line = 0;
+  for (std::size_t begin = start; begin < text.size(); ) {
+    ++line;
+    std::size_t end = text.find('\n', begin);
+    if (end == std::string::npos) end = text.size();
+    const std::size_t first = text.find_first_not_of(" \r", begin);
+    const bool content = first < end && text[first] != '#';
+    const auto restIsBlank = [&](std::size_t from) {
+      const std::size_t next = text.find_first_not_of(" \r", from);
+      return next >= end || text[next] == '#';
+    };
+    const auto refuseLayout = [&](const char* what) {
+      refuse(source, cv::format("has %s (line %d); expected a YAML map of parameters starting "
+                                "at column 0, as LiFF writes",
+                                what, line));
+    };
+    if (!content) {
+    } else if (first == begin && startsWith(text, begin, "---")) {
+      if (!restIsBlank(begin + 3)) refuseLayout("text after '---'");
+      rootNext = true;
+      endedDocument = false;
+    } else if (first == begin && startsWith(text, begin, "...")) {
+      if (!restIsBlank(begin + 3)) refuseLayout("text after '...'");
+      endedDocument = true;
+    } else if (first == begin && text[first] == '%' && (rootNext || endedDocument)) {
+      // a directive
+    } else if (endedDocument) {
+      refuseLayout("text after '...' that does not start a document with '---'");
+    } else if (rootNext) {
+      if (first != begin) refuseLayout("a document that does not start at column 0");
+      if (text[first] == '[' || text[first] == '{')
+        refuseLayout("a document in flow style ([...] or {...})");
+      if (text[first] == '!') refuseLayout("a document with a type tag");  // (its root starts after)
+      rootNext = false;
     }
     begin = end + 1;
   }
@@ -263,7 +310,10 @@ void checkParameterText(const std::string& text, const std::string& source) {
                                                            : Format::Yaml;
   if (format == Format::Json) scanJson(text, start, source);
   if (format == Format::Xml) scanXml(text, start, source);
-  if (format == Format::Yaml) scanYaml(text, start, source);
+  if (format == Format::Yaml) {
+    checkYamlLayout(text, start, source);
+    scanYaml(text, start, source);
+  }
 }
 
 cv::FileStorage openParameterText(const std::string& text, const std::string& source) {

@@ -301,8 +301,8 @@ TEST(ParameterFile, NestingBeyondTheLimitIsRefusedBeforeOpenCVParsesIt) {
         "{\"a\": " + std::string(100000, '[') + "}",
         "<?xml version=\"1.0\"?>\n<opencv_storage>" + repeat("<a>", 100000),
         // found by fuzzing the check against OpenCV: type tags before block sequences
-        "%YAML:1.0\n---\n" + repeat("!}  -", 100000), "%YAML:1.0\n---\n" + repeat("    -!- ", 60000),
-        "%YAML:1.0\n---\n" + repeat("!x: ", 100000), "%YAML:1.0\n---\na: " + repeat("/:- !/>", 60000)})
+        "%YAML:1.0\n---\na: " + repeat("!}  -", 100000), "%YAML:1.0\n---\na: " + repeat("    -!- ", 60000),
+        "%YAML:1.0\n---\na: " + repeat("!x: ", 100000), "%YAML:1.0\n---\na: " + repeat("/:- !/>", 60000)})
     EXPECT_TRUE(throwsWith([&] { liff::openParameterText(text, "deep"); }, "nests more than 64"));
   EXPECT_NO_THROW(liff::openParameterText(deepYaml(30), "shallow"));
 }
@@ -324,6 +324,20 @@ TEST(ParameterFile, ReadOfAPathChecksTheFileAndHidesFeature2DRead) {
   d->read(path);
   EXPECT_EQ(d->getNFeatures(), 3);
   std::remove(path.c_str());
+}
+
+TEST(ParameterFile, ADocumentStartingWithSpacesIsScannedWithinItsBounds) {
+  // (found by AddressSanitizer: the character before the first one was read)
+  EXPECT_TRUE(throwsWith([] { liff::checkParameterText("  -a: 1\n", "spaces"); }, "column 0"));
+  EXPECT_NO_THROW(liff::checkParameterText(" ", "spaces"));
+}
+
+TEST(ParameterFile, YamlLayoutsThatHangOpenCVAreRefused) {
+  // OpenCV 4.6's YAML parser loops forever on each of these
+  for (const char* text : {"%YAML:1.0\n---\nnfeatures: 3\n...\n-x\n", "%YAML:1.0\n -<\n]\n-",
+                           "%YAML:1.0\n--- a: 1\n-x\n", "%YAML:1.0\n---\n!!map a:},-\n---\n\n- ["})
+    EXPECT_TRUE(throwsWith([&] { liff::checkParameterText(text, "hang"); }, "expected a YAML map"));
+  EXPECT_NO_THROW(liff::openParameterText("%YAML:1.0\n---\na: 1\n...\n---\nb: 2\n", "two"));
 }
 
 TEST(ParameterFile, SizeAndBinaryContentAreRefused) {

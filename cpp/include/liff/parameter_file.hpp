@@ -24,7 +24,10 @@ constexpr std::size_t kMaxParameterFileBytes = std::size_t(1) << 20;
 /// Throws cv::Exception (cv::Error::StsParseError) naming `source` (how the message
 /// names the document: "parameter file 'p.yml'") and the line if the
 /// FileStorage document `text` is larger than kMaxParameterFileBytes, holds a NUL byte,
-/// a lone carriage return or base64 data, or nests deeper than kMaxParameterNesting.
+/// a lone carriage return or base64 data, nests deeper than kMaxParameterNesting, or
+/// (YAML) is laid out so that OpenCV 4's parser would loop forever: each document's root
+/// must start at column 0 as a block map or sequence, and a "..." line be followed by
+/// "---", a directive or the end.
 /// The check overestimates the nesting (brackets in strings and comments may count,
 /// never the reverse), so that no document it passes can recurse deeper in OpenCV.
 void checkParameterText(const std::string& text, const std::string& source);

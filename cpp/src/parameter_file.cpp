@@ -125,11 +125,11 @@ void scanYaml(const std::string& text, std::size_t start, const std::string& sou
     if (!blank && !comment && flow == 0)
       while (!blocks.empty() && blocks.back() > first - begin) blocks.pop_back();
     // (searches bounded by the line: a scan stays linear in the file's size)
-    const auto lineBegin = text.begin() + std::ptrdiff_t(begin), lineEnd = text.begin() + std::ptrdiff_t(end);
+    const auto lineBegin = text.begin() + std::ptrdiff_t(begin);
+    const auto lineEnd = text.begin() + std::ptrdiff_t(end);
+    const auto uncertain = [](char c) { return c == '#' || c == '\'' || c == '"' || c == '!'; };
     const std::size_t uncertainFrom =
-        std::size_t(std::find_if(lineBegin, lineEnd,
-                                 [](char c) { return c == '#' || c == '\'' || c == '"' || c == '!'; }) -
-                    text.begin());
+        std::size_t(std::find_if(lineBegin, lineEnd, uncertain) - text.begin());
     const auto colon = std::find(std::make_reverse_iterator(lineEnd),
                                  std::make_reverse_iterator(lineBegin), ':');
     const bool colonAfter = colon.base() != lineBegin;
@@ -204,7 +204,8 @@ void checkYamlLayout(const std::string& text, std::size_t start, const std::stri
       if (first != begin) refuseLayout("a document that does not start at column 0");
       if (text[first] == '[' || text[first] == '{')
         refuseLayout("a document in flow style ([...] or {...})");
-      if (text[first] == '!') refuseLayout("a document with a type tag");  // (its root starts after)
+      if (text[first] == '!')  // (its root would start after the tag)
+        refuseLayout("a document with a type tag");
       rootNext = false;
     }
     begin = end + 1;

@@ -3,8 +3,8 @@
 #include <climits>
 #include <cmath>
 #include <cstdlib>
-#include <string>
 #include <liff/parameters.hpp>
+#include <string>
 
 #include "slope_plan.hpp"
 

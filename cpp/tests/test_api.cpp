@@ -301,8 +301,10 @@ TEST(ParameterFile, NestingBeyondTheLimitIsRefusedBeforeOpenCVParsesIt) {
         "{\"a\": " + std::string(100000, '[') + "}",
         "<?xml version=\"1.0\"?>\n<opencv_storage>" + repeat("<a>", 100000),
         // found by fuzzing the check against OpenCV: type tags before block sequences
-        "%YAML:1.0\n---\na: " + repeat("!}  -", 100000), "%YAML:1.0\n---\na: " + repeat("    -!- ", 60000),
-        "%YAML:1.0\n---\na: " + repeat("!x: ", 100000), "%YAML:1.0\n---\na: " + repeat("/:- !/>", 60000)})
+        "%YAML:1.0\n---\na: " + repeat("!}  -", 100000),
+        "%YAML:1.0\n---\na: " + repeat("    -!- ", 60000),
+        "%YAML:1.0\n---\na: " + repeat("!x: ", 100000),
+        "%YAML:1.0\n---\na: " + repeat("/:- !/>", 60000)})
     EXPECT_TRUE(throwsWith([&] { liff::openParameterText(text, "deep"); }, "nests more than 64"));
   EXPECT_NO_THROW(liff::openParameterText(deepYaml(30), "shallow"));
 }
@@ -346,7 +348,8 @@ TEST(ParameterFile, SizeAndBinaryContentAreRefused) {
         liff::checkParameterText("%YAML:1.0\n---\n" + std::string(2 << 20, ' ') + "\n", "big");
       },
       "larger than 1048576 bytes"));
-  EXPECT_TRUE(throwsWith([&] { liff::checkParameterText(std::string("%YAML:1.0\na: 1\0", 15), "nul"); }, "NUL"));
+  EXPECT_TRUE(throwsWith(
+      [&] { liff::checkParameterText(std::string("%YAML:1.0\na: 1\0", 15), "nul"); }, "NUL"));
   EXPECT_TRUE(throwsWith(
       [&] { liff::checkParameterText("%YAML:1.0\na: !!binary |\n  ]]]]\n", "b"); }, "base64"));
   EXPECT_TRUE(

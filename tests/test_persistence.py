@@ -287,10 +287,13 @@ def test_matrices_and_nested_algorithm_files_are_read(tmp_path, custom):
         assert params(d) == params(custom), ext
 
 
-def test_checks_stay_linear_on_a_file_at_the_size_limit(tmp_path, custom):
+@pytest.mark.parametrize("filler", ["#\n" * 500_000, "# " + "nfeatures:" * 100_000 + "\n"],
+                         ids=["short lines", "keys in a comment"])
+def test_checks_stay_linear_on_a_file_at_the_size_limit(tmp_path, custom, filler):
+    # (the integer check had scanned each key's value to the end of the line: 63 s)
     import time
     path = tmp_path / "long.yml"
-    path.write_text("%YAML:1.0\n---\nnfeatures: 3\n" + "#\n" * 500_000)
+    path.write_text("%YAML:1.0\n---\nnfeatures: 3\n" + filler)
     start = time.perf_counter()
     custom.read(str(path))
     assert custom.getNFeatures() == 3 and time.perf_counter() - start < 5
@@ -392,3 +395,13 @@ def test_yaml_streams_as_opencv_writes_them_are_read(tmp_path, custom):
     path.write_text("%YAML:1.0\n---\nnfeatures: 3\n...\n---\nother: 1\n")
     custom.read(str(path))
     assert custom.getNFeatures() == 3
+
+
+def test_a_parse_error_is_short_and_names_the_line(tmp_path, custom):
+    # OpenCV names a document in memory by its text: a 5 KB file had made a 5 KB message
+    path = tmp_path / "bad.json"
+    path.write_text('{"nfeatures": 3, "x": ' + "x" * 5000 + "}\n")
+    with pytest.raises(ValueError) as info:
+        custom.read(str(path))
+    message = str(info.value)
+    assert len(message) < 500 and str(path) in message and "(1)" in message, message

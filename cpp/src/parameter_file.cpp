@@ -249,8 +249,10 @@ void checkIntegerAsWritten(const std::string& text, const std::string& key,
     i = std::min(text.size(), text.find_first_not_of(" \t", i));
     if (i == text.size() || text[i] != (xml ? '>' : ':')) continue;
     i = std::min(text.size(), text.find_first_not_of(xml ? " \t\r\n" : " \t", i + 1));
+    // (at most 40 characters: longer is beyond an int anyway, and the scan stays linear)
     std::size_t end = i;
-    while (end < text.size() && !std::strchr(" \t\r\n,}]#<\"'", text[end])) ++end;
+    while (end < std::min(text.size(), i + 40) && !std::strchr(" \t\r\n,}]#<\"'", text[end]))
+      ++end;
     const std::string token = text.substr(i, end - i);
     // An integer to OpenCV: a sign, digits, and no '.' or 'e' after them (else a real).
     const std::size_t digits = token.find_first_not_of("+-") == 1 ? 1 : 0;
@@ -323,8 +325,17 @@ cv::FileStorage openParameterText(const std::string& text, const std::string& so
   try {
     fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
   } catch (const cv::Exception& e) {
-    // OpenCV 4.6 swaps the message and the function of a parse error: show both.
-    refuse(source, "cannot be parsed (OpenCV: " + e.err + " " + e.func +
+    // OpenCV 4.6 swaps the message and the function of a parse error: show both, less
+    // the document's first line, by which OpenCV names one in memory, in 300 bytes.
+    std::string detail;
+    for (const cv::String& part : {e.err, e.func}) {
+      const std::size_t same = std::size_t(
+          std::mismatch(part.begin(), part.end(), text.begin(), text.end()).first - part.begin());
+      const bool named = same >= std::min<std::size_t>(16, text.size()) && same > 0;
+      detail += (detail.empty() ? "" : " ") + (named ? part.substr(same) : part);
+    }
+    if (detail.size() > 300) detail = detail.substr(0, 300) + "...";
+    refuse(source, "cannot be parsed (OpenCV: " + detail +
                        "); expected an OpenCV FileStorage document (YAML, JSON or XML)");
   }
   if (!fs.isOpened())

@@ -249,6 +249,25 @@ KNOWN_BUG_INPUTS = {
 }
 
 
+PARAMETERS = {
+    "yaml": b"%YAML:1.0\n---\nnfeatures: 5\nsigma: 1.5\nrootSift: 1\nfirstSlope: -1.\n",
+    "yaml-algorithm": b"%YAML:1.0\n---\nFeature2D.LiFF:\n   name: Feature2D.LiFF\n   nfeatures: 7\n",
+    "yaml-matrix": (b"%YAML:1.0\n---\nK: !!opencv-matrix\n   rows: 2\n   cols: 2\n   dt: d\n"
+                    b"   data: [ 1., 0., 0., 1. ]\nnOctaveLayers: 4\n"),
+    "json": b'{\n    "nfeatures": 3,\n    "numSlopes": 9,\n    "lastSlope": 2.5\n}\n',
+    "xml": (b'<?xml version="1.0"?>\n<opencv_storage>\n<nfeatures>4</nfeatures>\n'
+            b"<edgeThreshold>8.</edgeThreshold>\n</opencv_storage>\n"),
+    "deep-yaml": b"%YAML:1.0\n---\na: " + b"[" * 100 + b"]" * 100 + b"\n",
+    "deep-block": b"%YAML:1.0\n---\na: " + b"- " * 100 + b"1\n",
+    "deep-json": b'{"a": ' + b"[" * 100 + b"]" * 100 + b"}\n",
+    "deep-xml": b'<?xml version="1.0"?>\n<opencv_storage>' + b"<a>" * 100 + b"</a>" * 100 + b"</opencv_storage>\n",
+    "wrapping-int": b"%YAML:1.0\n---\nnfeatures: 4294967297\n",
+    "nan-bool": b"%YAML:1.0\n---\nrootSift: .nan\n",
+    "tagged": b"%YAML:1.0\n---\na: !x: !x: 1\n",
+}
+SEEDS["parameters"] = PARAMETERS
+
+
 def main():
     for name, inputs in KNOWN_BUG_INPUTS.items():
         for bug, data in inputs.items():

@@ -19,7 +19,15 @@ from typing import Callable, Optional
 
 import numpy as np
 
+import liff
 import liff.io
+
+
+def read_parameters(path: str) -> np.ndarray:
+    """``LiFF.read(path)``: the parameters a file sets, as an array (a clean result)."""
+    detector = liff.LiFF.create()
+    detector.read(path)
+    return np.array([getattr(detector, "get" + p.accessor)() for p in liff.PARAMETERS], float)
 
 
 @dataclass(frozen=True)
@@ -47,6 +55,8 @@ READERS = [
     Reader("mat", liff.io.read_mat, file(".mat")),
     Reader("hdf5", liff.io.read_hdf5, file(".h5")),
     Reader("any", liff.io.read_light_field, file(".npz")),
+    # a parameter file (YAML, JSON or XML, told by its content): nesting, size, values
+    Reader("parameters", read_parameters, file(".yml")),
 ]
 BY_NAME = {r.name: r for r in READERS}
 

@@ -6,6 +6,10 @@ these live in conftest.py.
 
 from __future__ import annotations
 
+import os
+import threading
+import time
+
 import cv2
 import numpy as np
 
@@ -179,3 +183,35 @@ def write_mat_v73(path, variables: dict) -> None:
             put(f, name, value)
     with open(path, "r+b") as f:
         f.write(MATLAB_V73_HEADER)
+
+
+class Fifo:
+    """A FIFO at ``path`` that never leaves a reader blocked: while it is open (a
+    context), a thread lets each reader that opens it read an empty file at once, and
+    counts them (``opened``), so that code that opens it fails instead of hanging."""
+
+    def __init__(self, path):
+        self.path = os.fspath(path)
+        self.opened = 0
+        os.mkfifo(self.path)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._release, daemon=True)
+
+    def _release(self):
+        while not self._stop.is_set():
+            try:  # succeeds only while a reader has the FIFO open
+                fd = os.open(self.path, os.O_WRONLY | os.O_NONBLOCK)
+            except OSError:
+                time.sleep(0.02)
+                continue
+            self.opened += 1
+            os.close(fd)
+            time.sleep(0.02)
+
+    def __enter__(self):
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()

@@ -283,3 +283,25 @@ def test_detect_writes_nothing_inside_a_folder_of_light_fields_given(disks, tmp_
         err = capsys.readouterr().err
         assert ("inside the input folder" in err or "is the input" in err) and flag in err
         assert sorted(os.listdir(folder)) == before
+
+
+@pytest.mark.parametrize("overwrite", [[], ["--overwrite"]])
+@pytest.mark.parametrize("option", ["--out", "--manifest", "--plot", "input"])
+def test_a_fifo_in_place_of_a_file_is_refused_at_once(disks, tmp_path, capsys, option, overwrite):
+    # opening a FIFO to check it (or to read it) blocked liff forever
+    from lfhelpers import Fifo
+    name = {"--out": "f.npz", "--manifest": "m.csv", "--plot": "p.png", "input": "in.npz"}[option]
+    with Fifo(tmp_path / name) as fifo:
+        argv = ["detect", str(disks), "--out", str(tmp_path / "out.npz"), *overwrite]
+        if option == "input":
+            argv[1] = fifo.path
+        elif option == "--out":
+            argv[3] = fifo.path
+        else:
+            argv += [option, fifo.path]
+        assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert f"{fifo.path}: is a FIFO" in err, err
+    assert fifo.opened == 0
+    assert os.path.exists(fifo.path) and not os.path.isfile(fifo.path)  # left as it was
+    assert not os.path.exists(tmp_path / "out.npz") or option == "--plot"

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import os
 import re
 import struct
+import subprocess
+import sys
 import zlib
 from pathlib import Path
 
@@ -550,3 +553,129 @@ def test_non_native_byte_order_is_read_as_native(tmp_path, dtype):
     if native == np.uint16:  # writable as images once in native order
         io.write_mosaic(tmp_path / "m.png", lf)
         np.testing.assert_array_equal(io.read_mosaic(tmp_path / "m.png", (2, 2)).light_field, lf)
+
+
+# --- only regular files and folders: a FIFO would block the reader forever ---------------
+
+FIFO_READERS = {
+    "read_light_field .npz": ("lf.npz", lambda p: io.read_light_field(p)),
+    "read_light_field .npy": ("lf.npy", lambda p: io.read_light_field(p)),
+    "read_light_field .mat": ("lf.mat", lambda p: io.read_light_field(p)),
+    "read_light_field .h5": ("lf.h5", lambda p: io.read_light_field(p)),
+    "read_light_field mosaic": ("m.png", lambda p: io.read_light_field(p, format="mosaic", grid=(2, 2))),
+    "read_numpy": ("lf.npz", io.read_numpy),
+    "read_pfm": ("d.pfm", io.read_pfm),
+    "read_eslf": ("a.eslf.png", io.read_eslf),
+    "read_mat": ("lf.mat", io.read_mat),
+    "read_hdf5": ("lf.h5", io.read_hdf5),
+}
+
+
+@pytest.mark.parametrize("name, call", FIFO_READERS.values(), ids=FIFO_READERS.keys())
+def test_a_fifo_is_refused_without_opening_it(tmp_path, name, call):
+    from lfhelpers import Fifo
+    with Fifo(tmp_path / name) as fifo:
+        with pytest.raises(ValueError, match=rf"{re.escape(fifo.path)}: is a FIFO"):
+            call(fifo.path)
+    assert fifo.opened == 0
+
+
+@pytest.mark.parametrize("kind", ["views", "hci"])
+def test_a_fifo_among_the_views_is_refused_without_opening_it(tmp_path, kind):
+    from lfhelpers import Fifo
+    lf = coded_lf((2, 2, 8, 8, 3))
+    folder = tmp_path / "scene"
+    folder.mkdir()
+    names = ([f"input_Cam{i:03d}.png" for i in range(4)] if kind == "hci" else
+             [f"v_{t:02d}_{s:02d}.png" for t in range(2) for s in range(2)])
+    for name, view in zip(names[:3], lf.reshape(4, 8, 8, 3)):
+        cv2.imwrite(str(folder / name), view)
+    with Fifo(folder / names[3]) as fifo:
+        with pytest.raises(ValueError, match="is a FIFO"):
+            io.read_light_field(folder)
+    assert fifo.opened == 0
+
+
+# --- OpenCV's decoding errors as liff's: ValueError, MemoryError, naming the file --------
+
+def zero_png(path, width, height):
+    """A valid grey PNG of width x height black pixels (rows compress to almost nothing)."""
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data +
+                struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    packer, row = zlib.compressobj(9), b"\0" * (width + 1)
+    idat = b"".join(packer.compress(row) for _ in range(height)) + packer.flush()
+    Path(path).write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
+                          + chunk(b"IDAT", idat) + chunk(b"IEND", b""))
+
+
+def huge_header_png(path):
+    """A PNG whose header claims 100000 x 100000 pixels, more than OpenCV decodes."""
+    zero_png(path, 4, 4)
+    data = bytearray(Path(path).read_bytes())
+    data[16:24] = struct.pack(">II", 100_000, 100_000)
+    data[29:33] = struct.pack(">I", zlib.crc32(bytes(data[12:29])) & 0xFFFFFFFF)
+    Path(path).write_bytes(bytes(data))
+
+
+def folder_with(tmp_path, kind, bad):
+    folder = tmp_path / kind
+    folder.mkdir()
+    names = ([f"input_Cam{i:03d}.png" for i in range(4)] if kind == "hci" else
+             [f"v_{t:02d}_{s:02d}.png" for t in range(2) for s in range(2)])
+    for name in names:
+        zero_png(folder / name, 8, 8)
+    bad(folder / names[0])
+    return folder, folder / names[0]
+
+
+HUGE_HEADER = {
+    "read_image": lambda tmp: (tmp / "a.png", lambda p: io.images.read_image(p)),
+    "read_mosaic": lambda tmp: (tmp / "a.png", lambda p: io.read_mosaic(p, grid=(2, 2))),
+    "read_eslf": lambda tmp: (tmp / "a.eslf.png", io.read_eslf),
+}
+
+
+@pytest.mark.parametrize("case", list(HUGE_HEADER) + ["views", "hci"])
+def test_an_image_claiming_more_pixels_than_opencv_decodes_is_a_value_error(tmp_path, case):
+    # OpenCV's cv2.error (-215, pixels <= CV_IO_MAX_IMAGE_PIXELS) had escaped
+    if case in HUGE_HEADER:
+        path, call = HUGE_HEADER[case](tmp_path)
+        huge_header_png(path)
+        target = path
+    else:
+        target, path = folder_with(tmp_path, case, huge_header_png)
+        call = io.read_light_field
+    with pytest.raises(ValueError, match=rf"{re.escape(str(path))}: .*more pixels than OpenCV"):
+        call(str(target))
+
+
+OUT_OF_MEMORY = """
+import os, resource, sys
+import liff.io
+path, kind = sys.argv[1], sys.argv[2]
+vm = int(next(l for l in open("/proc/self/status") if l.startswith("VmSize")).split()[1]) * 1024
+resource.setrlimit(resource.RLIMIT_AS, (vm + 48 * 2**20, resource.RLIM_INFINITY))
+try:
+    liff.io.images.read_image(path) if kind == "image" else liff.io.read_light_field(path)
+except MemoryError as e:
+    print("MemoryError:", e)
+"""
+
+
+@pytest.mark.parametrize("kind", ["image", "hci"])
+def test_running_out_of_memory_while_decoding_is_a_memory_error(tmp_path, kind):
+    # a 140 KB PNG decodes to 144 MB; with 48 MB left OpenCV raised cv2.error (-4)
+    if kind == "image":
+        target = path = tmp_path / "big.png"
+        zero_png(path, 12000, 12000)
+    else:
+        target, path = folder_with(tmp_path, "hci", lambda p: zero_png(p, 12000, 12000))
+    env = dict(os.environ)
+    if "LD_PRELOAD" in env:  # the sanitized run: ASan reserves terabytes of address space;
+        del env["LD_PRELOAD"]  # the readers are Python over cv2, the installed liff will do
+        env.pop("PYTHONPATH", None)
+    proc = subprocess.run([sys.executable, "-c", OUT_OF_MEMORY, str(target), kind],
+                          capture_output=True, text=True, timeout=120, env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert f"MemoryError: {path}: not enough memory" in proc.stdout, proc.stdout + proc.stderr

@@ -87,20 +87,10 @@ void bindPersistence(py::class_<PyLiFF>& cls) {
   cls.def(
       "_read_file",
       [](PyLiFF& s, const std::string& path) {
-        cv::FileStorage fs;
-        try {
-          fs.open(path, cv::FileStorage::READ);
-        } catch (const cv::Exception& e) {
-          throw py::value_error("cannot parse LiFF parameters in '" + path + "' (" + e.err +
-                                "); expected an OpenCV FileStorage file " + kFileStorageNames);
-        }
-        if (!fs.isOpened())
-          throw py::value_error("cannot read LiFF parameters from '" + path +
-                                "'; expected a readable OpenCV FileStorage file " +
-                                kFileStorageNames);
+        const cv::FileStorage fs = openParameterFile(path);  // checks size and nesting
         s.impl->read(fs.root());
       },
-      "path"_a, "Reads parameters from a FileStorage file.");
+      "path"_a, "Reads parameters from a FileStorage file (liff/parameter_file.hpp's limits).");
   cls.def(
       "_to_string",
       [](const PyLiFF& s) {
@@ -112,8 +102,7 @@ void bindPersistence(py::class_<PyLiFF>& cls) {
   cls.def(
       "_from_string",
       [](PyLiFF& s, const std::string& text) {
-        cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
-        if (!fs.isOpened()) throw py::value_error("not a FileStorage document");
+        const cv::FileStorage fs = openParameterText(text, "parameter document");
         s.impl->read(fs.root());
       },
       "text"_a, "Reads parameters from a FileStorage document in memory.");

@@ -38,6 +38,8 @@ int slopeToClassId(double slope) {
 
 cv::String LiFF::getDefaultName() const { return "Feature2D.LiFF"; }
 
+void LiFF::read(const cv::String& fileName) { read(openParameterFile(fileName).root()); }
+
 namespace {
 
 using detail::Call;

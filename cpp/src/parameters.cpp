@@ -2,7 +2,9 @@
 // form; the parameters themselves are listed once in liff/parameters.hpp.
 #include <climits>
 #include <cmath>
+#include <cstdlib>
 #include <liff/parameters.hpp>
+#include <string>
 
 #include "slope_plan.hpp"
 
@@ -20,6 +22,14 @@ void checkSlope(const char* name, double v, double automatic) {
                      automatic < 0 ? "-inf" : "+inf", detail::kMaxAbsSlope, detail::kMaxAbsSlope));
 }
 
+// `v` as it was written, as far as a double holds it (4294967297, not 4.29497e+09).
+std::string exact(double v) {
+  if (std::isnan(v)) return "nan";  // OpenCV reads .nan as -nan
+  std::string text = cv::format("%.15g", v);
+  if (std::strtod(text.c_str(), nullptr) != v) text = cv::format("%.17g", v);
+  return text;
+}
+
 // A FileStorage entry as a number, or an error naming the key.
 double number(const cv::FileNode& node, const char* key) {
   if (!node.isInt() && !node.isReal())
@@ -34,18 +44,27 @@ void readEntry(const cv::FileNode& fn, const char* key, int& value) {
   const cv::FileNode node = fn[key];
   if (node.empty()) return;
   const double v = number(node, key);
-  if (v != std::floor(v) || std::abs(v) > INT_MAX)
+  if (v != std::floor(v) || v < INT_MIN || v > INT_MAX)
     CV_Error(cv::Error::StsBadArg,
-             cv::format("LiFF: read() found %s = %g; expected an integer", key, v));
+             cv::format("LiFF: read() found %s = %s; expected an integer in [%d, %d]", key,
+                        exact(v).c_str(), INT_MIN, INT_MAX));
   value = int(v);
 }
 void readEntry(const cv::FileNode& fn, const char* key, double& value) {
   const cv::FileNode node = fn[key];
   if (!node.empty()) value = number(node, key);
 }
+// A boolean only from 0 or 1 (what write() writes; JSON's false and true), never from
+// NaN or another number.
 void readEntry(const cv::FileNode& fn, const char* key, bool& value) {
   const cv::FileNode node = fn[key];
-  if (!node.empty()) value = number(node, key) != 0;
+  if (node.empty()) return;
+  const double v = number(node, key);
+  if (v != 0 && v != 1)
+    CV_Error(cv::Error::StsBadArg,
+             cv::format("LiFF: read() found %s = %s; expected 0 or 1 (false or true)", key,
+                        exact(v).c_str()));
+  value = v == 1;
 }
 
 void writeEntry(cv::FileStorage& fs, const char* key, int value) { fs << key << value; }

@@ -4,8 +4,16 @@
 
 #include <gtest/gtest.h>
 
+#ifdef __linux__
+#include <sys/wait.h>
+#include <unistd.h>
+#endif
+
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <functional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -269,3 +277,143 @@ TEST(Persistence, ReadOfABadValueThrowsAndChangesNothing) {
 }
 
 }  // namespace
+
+// --- hostile parameter files (liff/parameter_file.hpp) -------------------------------------
+
+namespace {
+
+std::string repeat(const std::string& s, int n) {
+  std::string out;
+  for (int i = 0; i < n; ++i) out += s;
+  return out;
+}
+
+std::string deepYaml(int n) {
+  return "%YAML:1.0\n---\na: " + std::string(n, '[') + std::string(n, ']') + "\n";
+}
+
+}  // namespace
+
+TEST(ParameterFile, NestingBeyondTheLimitIsRefusedBeforeOpenCVParsesIt) {
+  // 100,000 levels overflow the stack of OpenCV's recursive parser (SIGSEGV)
+  for (const std::string& text :
+       {deepYaml(100000), "%YAML:1.0\n---\na: " + std::string(200000, '-') + "\n",
+        "{\"a\": " + std::string(100000, '[') + "}",
+        "<?xml version=\"1.0\"?>\n<opencv_storage>" + repeat("<a>", 100000),
+        // found by fuzzing the check against OpenCV: type tags before block sequences
+        "%YAML:1.0\n---\na: " + repeat("!}  -", 100000),
+        "%YAML:1.0\n---\na: " + repeat("    -!- ", 60000),
+        "%YAML:1.0\n---\na: " + repeat("!x: ", 100000),
+        "%YAML:1.0\n---\na: " + repeat("/:- !/>", 60000)})
+    EXPECT_TRUE(throwsWith([&] { liff::openParameterText(text, "deep"); }, "nests more than 64"));
+  EXPECT_NO_THROW(liff::openParameterText(deepYaml(30), "shallow"));
+}
+
+TEST(ParameterFile, ReadOfAPathChecksTheFileAndHidesFeature2DRead) {
+  const std::string path = ::testing::TempDir() + "liff_deep.yml";
+  {
+    std::ofstream out(path);
+    out << deepYaml(100000);
+  }
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create(7);
+  EXPECT_TRUE(throwsWith([&] { d->read(path); }, "nests more than 64"));
+  EXPECT_TRUE(throwsWith([&] { d->read(path + ".missing"); }, "no parameter file"));
+  EXPECT_TRUE(throwsWith([&] { d->read(::testing::TempDir()); }, "not a regular file"));
+  {
+    std::ofstream out(path);
+    out << "%YAML:1.0\n---\nnfeatures: 3\n";
+  }
+  d->read(path);
+  EXPECT_EQ(d->getNFeatures(), 3);
+  std::remove(path.c_str());
+}
+
+TEST(ParameterFile, ADocumentStartingWithSpacesIsScannedWithinItsBounds) {
+  // (found by AddressSanitizer: the character before the first one was read)
+  EXPECT_TRUE(throwsWith([] { liff::checkParameterText("  -a: 1\n", "spaces"); }, "column 0"));
+  EXPECT_NO_THROW(liff::checkParameterText(" ", "spaces"));
+}
+
+TEST(ParameterFile, YamlLayoutsThatHangOpenCVAreRefused) {
+  // OpenCV 4.6's YAML parser loops forever on each of these
+  for (const char* text : {"%YAML:1.0\n---\nnfeatures: 3\n...\n-x\n", "%YAML:1.0\n -<\n]\n-",
+                           "%YAML:1.0\n--- a: 1\n-x\n", "%YAML:1.0\n---\n!!map a:},-\n---\n\n- ["})
+    EXPECT_TRUE(throwsWith([&] { liff::checkParameterText(text, "hang"); }, "expected a YAML map"));
+  EXPECT_NO_THROW(liff::openParameterText("%YAML:1.0\n---\na: 1\n...\n---\nb: 2\n", "two"));
+}
+
+TEST(ParameterFile, SizeAndBinaryContentAreRefused) {
+  EXPECT_TRUE(throwsWith(
+      [&] {
+        liff::checkParameterText("%YAML:1.0\n---\n" + std::string(2 << 20, ' ') + "\n", "big");
+      },
+      "larger than 1048576 bytes"));
+  EXPECT_TRUE(throwsWith(
+      [&] { liff::checkParameterText(std::string("%YAML:1.0\na: 1\0", 15), "nul"); }, "NUL"));
+  EXPECT_TRUE(throwsWith(
+      [&] { liff::checkParameterText("%YAML:1.0\na: !!binary |\n  ]]]]\n", "b"); }, "base64"));
+  EXPECT_TRUE(
+      throwsWith([&] { liff::checkParameterText("%YAML:1.0\r---\n", "cr"); }, "carriage return"));
+}
+
+TEST(ParameterFile, IntegersBeyondAnIntAndNonBinaryBooleansAreRefusedAsWritten) {
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create(7);
+  const auto read = [&](const std::string& text) {
+    d->read(liff::openParameterText(text, "parameters").root());
+  };
+  EXPECT_TRUE(throwsWith([&] { read("%YAML:1.0\n---\nnfeatures: 4294967297\n"); },
+                         "nfeatures = 4294967297, which does not fit an int"));
+  EXPECT_TRUE(throwsWith([&] { read("{\n  \"nfeatures\": 99999999999999999999999\n}\n"); },
+                         "nfeatures = 99999999999999999999999"));
+  EXPECT_TRUE(throwsWith([&] { read("%YAML:1.0\n---\nrootSift: .nan\n"); },
+                         "rootSift = nan; expected 0 or 1"));
+  EXPECT_TRUE(throwsWith([&] { read("%YAML:1.0\n---\nnOctaveLayers: 1e10\n"); },
+                         "nOctaveLayers = 10000000000; expected an integer"));
+  EXPECT_EQ(d->getNFeatures(), 7);
+  read("%YAML:1.0\n---\nnfeatures: 2147483647\nrootSift: 1\n");
+  EXPECT_EQ(d->getNFeatures(), 2147483647);
+  EXPECT_TRUE(d->getRootSift());
+}
+
+#ifdef __linux__
+// The check's bound against OpenCV's parser itself: documents of a random short
+// pattern repeated to 400 KB (deep enough to overflow its stack if the pattern nests),
+// and every one the check passes parsed in a child process, which must not crash.
+TEST(ParameterFile, NoDocumentTheCheckPassesCrashesOpenCVsParser) {
+  const std::vector<std::string> tokens = {
+      "[", "]", "{", "}", ":", "-", " ", "\n", "'", "\"", "#", "!", "\\", "/", "*", ",", "a",
+      "<a>", "</a>", "<!--", "-->", "/>", "x: ", "- ", "  ", "1", "!!str ", "\"k\": ", "/*"};
+  const std::vector<std::string> heads = {"%YAML:1.0\n---\n", "{", "%YAML:1.0\n---\na: ",
+                                          "<?xml version=\"1.0\"?>\n<opencv_storage>",
+                                          "{\"a\": "};
+  std::mt19937 random(1);
+  int parsed = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    std::string pattern;
+    for (int k = 1 + int(random() % 5); k > 0; --k) pattern += tokens[random() % tokens.size()];
+    std::string text = heads[random() % heads.size()];
+    while (text.size() < 400000) text += pattern;
+    try {
+      liff::checkParameterText(text, "fuzz");
+    } catch (const cv::Exception&) {
+      continue;  // refused: never reaches OpenCV
+    }
+    ++parsed;
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      try {
+        cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+      } catch (...) {
+      }
+      _exit(0);
+    }
+    int status = 0;
+    waitpid(child, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status)) << "OpenCV's parser crashed on a document the check passed, "
+                                      "pattern ["
+                                   << pattern << "]";
+  }
+  EXPECT_GT(parsed, 100);
+}
+#endif

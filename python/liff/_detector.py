@@ -94,13 +94,20 @@ def _as_mask(mask) -> Optional[np.ndarray]:
 
 
 def _copy_scalars(node: "cv2.FileNode", fs: "cv2.FileStorage") -> None:
-    """Writes the string, int and real entries of the map ``node`` into ``fs``."""
+    """Writes the string, int and real entries of the map ``node`` that LiFF reads (its
+    parameters and ``name``) into ``fs`` (other keys may be names cv2's writer refuses)."""
+    read = {p.name for p in PARAMETERS} | {"name"}
     for key in node.keys():
+        if key not in read:
+            continue
         child = node.getNode(key)
         if child.isString():
             fs.write(key, child.string())
         elif child.isInt():
-            fs.write(key, int(child.real()))
+            # cv2 may hold a 64-bit integer, and its write() takes a C int (it wrote
+            # 4294967297 as `true`): one beyond an int goes as a real, which read() refuses
+            value = int(child.real())
+            fs.write(key, value if -2**31 <= value < 2**31 else float(value))
         elif child.isReal():
             fs.write(key, child.real())
 
@@ -340,13 +347,19 @@ class LiFF(_core.LiFF):
         """Reads parameters from a path or a ``cv2.FileNode`` (written by save/write).
 
         Raises ValueError if the file cannot be read or a value is out of range; the
-        detector is unchanged then.
+        detector is unchanged then. A path must be a regular file of at most 1 MiB nested
+        at most 64 levels deep (docs/RELIABILITY.md), checked before OpenCV parses it.
         """
         if isinstance(source, (str, os.PathLike)):
             path = os.fspath(source)
-            if not os.path.isfile(path):
+            if not os.path.exists(path):
                 raise ValueError(f"cannot read LiFF parameters: no file '{path}'")
-            self._read_file(path)
+            try:
+                self._read_file(path)  # refuses anything but a regular file
+            except ValueError as error:  # (a value out of range: name the file too)
+                if path in str(error):
+                    raise
+                raise ValueError(f"{path}: {error}") from None
             return
         if not isinstance(source, cv2.FileNode):
             raise TypeError(f"read() got {type(source).__name__}; expected a path or cv2.FileNode")

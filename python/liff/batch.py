@@ -32,6 +32,7 @@ from contextlib import ExitStack, contextmanager
 from dataclasses import asdict, dataclass, fields
 from typing import TYPE_CHECKING, List, NamedTuple, Optional, Sequence
 
+from ._paths import special_kind
 from .outputs import atomic_output
 
 if TYPE_CHECKING:  # (an optional dependency: pip install "liff[dask]")
@@ -330,6 +331,8 @@ def write_manifest(path: str, outcomes: Sequence[Outcome]) -> None:
 def is_manifest(path: str) -> bool:
     """Whether ``path`` is a manifest :func:`write_manifest` wrote (its CSV header)."""
     header = ",".join(MANIFEST_FIELDS)
+    if special_kind(path) is not None:  # a FIFO would block
+        return False
     try:
         with open(path, newline="") as f:
             return f.readline().rstrip("\r\n") == header

@@ -25,6 +25,7 @@ from typing import Optional, Tuple, Union
 import cv2
 import numpy as np
 
+from ._paths import refuse_special, special_kind
 from .keypoint_rows import SLOPE_SCALE, keypoint_slopes, keypoints_to_rows, rows_to_keypoints
 from .plot import to_display
 
@@ -122,6 +123,7 @@ def load_features(path: PathLike) -> Features:
         of inconsistent shapes.
     """
     path = os.fspath(path)
+    refuse_special(path, "a liff feature file (.npz)")
     try:
         data = np.load(path, allow_pickle=False)
     except Exception as error:  # numpy/zipfile raise many kinds on a damaged file
@@ -148,7 +150,10 @@ def load_features(path: PathLike) -> Features:
 
 def read_meta(path: PathLike) -> Optional[dict]:
     """The ``meta`` record of a liff feature file, without reading its arrays; None if
-    ``path`` is not a readable feature file (another kind of file, or a damaged one)."""
+    ``path`` is not a readable feature file (another kind of file, or a damaged one,
+    or a FIFO, socket or device, which it does not open)."""
+    if special_kind(path) is not None:
+        return None
     try:
         with np.load(os.fspath(path), allow_pickle=False) as data:
             if not {"keypoints", "descriptors", "meta"} <= set(data.files):

@@ -7,6 +7,8 @@ is complete. A run killed at any moment leaves the old file or the new one, neve
 truncated one (at most a hidden ``.NAME.*.partial*`` file beside it). Missing folders
 are created. :func:`refuse_inputs` refuses an output that is one of the inputs, by any
 spelling (relative path, symbolic link, hard link) or that lies inside an input folder.
+Only regular files and folders are replaced: a FIFO, socket or device in the way is
+refused (:func:`liff._paths.refuse_special`), before anything opens it.
 """
 
 from __future__ import annotations
@@ -16,6 +18,8 @@ import shutil
 import uuid
 from contextlib import contextmanager
 from typing import Iterable, Iterator, Union
+
+from ._paths import refuse_special
 
 PathLike = Union[str, os.PathLike]
 
@@ -63,10 +67,12 @@ def atomic_output(path: PathLike, folder: bool = False) -> Iterator[str]:
     Raises
     ------
     ValueError
-        If the destination's folder cannot be created; a writer's ValueError comes
-        back naming ``path`` instead of the temporary file.
+        If the destination's folder cannot be created or ``path`` is a FIFO, socket or
+        device; a writer's ValueError comes back naming ``path`` instead of the
+        temporary file.
     """
     path = os.fspath(path)
+    refuse_special(path, "a regular file or folder to replace, or a new path")
     make_folder(os.path.dirname(os.path.abspath(path)))
     temporary = temporary_name(path)
     if folder:
@@ -109,6 +115,9 @@ def refuse_inputs(outputs: Iterable[PathLike], inputs: Iterable[PathLike],
     option : str
         The option that chose the outputs, for the message.
     """
+    outputs = [os.fspath(o) for o in outputs]
+    for output in outputs:
+        refuse_special(output, f"a regular file or folder for {option}, or a new path")
     inputs = [os.fspath(i) for i in inputs if os.path.exists(i)]
     folders = [os.path.realpath(i) + os.sep for i in inputs if os.path.isdir(i)]
     for output in map(os.fspath, outputs):

@@ -23,6 +23,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>  // OpenCV 5 keeps this as a compatibility header
 
+#include <liff/parameter_file.hpp>
 #include <liff/parameters.hpp>
 
 namespace liff {
@@ -117,6 +118,13 @@ class CV_EXPORTS_W LiFF : public cv::Feature2D {
   virtual std::vector<double> getSearchedSlopes() const = 0;
 
   cv::String getDefaultName() const override;
+
+  /// Reads parameters from a FileStorage file (as written by write(fileName) or
+  /// save()) through openParameterFile: a file too large or nested too deep, or not a
+  /// regular file, throws cv::Exception instead of reaching OpenCV's parser. Hides
+  /// cv::Feature2D::read(fileName), which is not virtual: call it through a LiFF.
+  void read(const cv::String& fileName);
+  using cv::Feature2D::read;
 };
 
 }  // namespace liff

@@ -10,6 +10,7 @@ from typing import Optional
 
 import numpy as np
 
+from .._paths import refuse_special
 from ..camera import LightFieldCamera
 
 
@@ -48,6 +49,7 @@ def camera_from_args(args: argparse.Namespace) -> Optional[LightFieldCamera]:
 
 def read_matrix(path: str) -> np.ndarray:
     """A matrix from a .npy file or a whitespace- or comma-separated text file."""
+    refuse_special(path, "the toolbox's 5x5 H as text or .npy")
     if not os.path.isfile(path):
         raise ValueError(f"{path}: no such file; expected the toolbox's 5x5 H as text or .npy")
     try:

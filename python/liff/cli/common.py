@@ -17,6 +17,7 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .._detector import PARAMETERS, LiFF
+from .._paths import refuse_special
 from .._processes import stop_now
 from ..io.images import IMAGE_SUFFIXES
 
@@ -349,6 +350,7 @@ def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] 
 
     paths = list(paths)
     if from_list:
+        refuse_special(from_list, "a text file of light field paths, one a line")
         try:
             with open(from_list) as f:
                 listed = [line.strip() for line in f]

@@ -262,7 +262,7 @@ def check_manifest(manifest: str, args: argparse.Namespace, tasks: List[batch.Ta
     """Raises ValueError, before anything runs, if the manifest would write over an
     input, over another output of the run, or over an existing file that is not a liff
     manifest (unless ``--overwrite``)."""
-    refuse_inputs([manifest], common.protected_inputs(args), "--manifest")
+    refuse_inputs([manifest], common.protected_inputs(args), "--manifest")  # (and a FIFO)
     outputs = [t.output for t in tasks] + [t.plot for t in tasks if t.plot] + [k.output for k in kept]
     if any(os.path.exists(o) and os.path.exists(manifest) and os.path.samefile(o, manifest) or
            os.path.abspath(o) == os.path.abspath(manifest) for o in outputs):

@@ -8,6 +8,8 @@ from typing import Optional
 
 import numpy as np
 
+from .._paths import refuse_special
+
 AUTO = "auto"
 
 
@@ -21,6 +23,8 @@ def add_mask_option(parser: argparse.ArgumentParser) -> None:
 
 def check_mask_option(spec: Optional[str]) -> None:
     """Raises ValueError, before any light field is read, if ``--mask`` names no file."""
+    if spec is not None and spec != AUTO:
+        refuse_special(spec, "an image of the views' size for --mask")
     if spec is not None and spec != AUTO and not os.path.isfile(spec):
         raise ValueError(f"--mask {spec}: no such file; expected an image of the views' size, "
                          f"or '{AUTO}'")

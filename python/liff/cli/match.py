@@ -7,6 +7,7 @@ import sys
 
 import numpy as np
 
+from .._paths import special_kind
 from ..feature_file import Features, features_from_light_field, load_features
 from ..io.images import write_image
 from ..matching import chance_inliers, draw_inliers, ratio_matches, verify
@@ -42,8 +43,8 @@ def add_parser(sub) -> None:
 
 
 def is_feature_file(path: str) -> bool:
-    if not path.endswith(".npz"):
-        return False
+    if not path.endswith(".npz") or special_kind(path) is not None:
+        return False  # (read_light_field refuses a FIFO without opening it)
     try:
         with np.load(path, allow_pickle=False) as data:
             return "descriptors" in data.files and "keypoints" in data.files

@@ -17,6 +17,7 @@ import numpy as np
 # The image helpers are public (liff.io.images); the readers take them from here too.
 from .images import (IMAGE_SUFFIXES, LIGHT_FIELD_DTYPES, SIXTEEN_BIT_SUFFIXES,  # noqa: F401
                      PathLike, as_image, read_image, write_image)
+from .._paths import refuse_special
 
 
 @dataclass
@@ -243,6 +244,7 @@ def stored_file(path: PathLike, key, what: str, key_is: str) -> str:
         (expected ``key_is``).
     """
     path = os.fspath(path)
+    refuse_special(path, what)
     if not os.path.isfile(path):
         raise ValueError(f"{path}: no such file; expected {what}")
     if key is not None and not isinstance(key, str):

@@ -18,7 +18,9 @@ import numpy as np
 
 from ..camera import HCI_CAMERA_KEYS, LightFieldCamera
 from ._shared import describe_missing
+from .images import decode_image
 from .pfm import read_pfm
+from .._paths import refuse_special
 
 PathLike = Union[str, os.PathLike]
 _VIEW = re.compile(r"^input_Cam(\d{3})\.png$")
@@ -75,6 +77,7 @@ def read_hci(folder: PathLike) -> HciScene:
 
     parameters, T, S = {}, None, None
     cfg_path = os.path.join(folder, "parameters.cfg")
+    refuse_special(cfg_path, "an HCI parameters.cfg")
     if os.path.isfile(cfg_path):
         # No interpolation: a '%' in a value is text, not a configparser reference.
         cfg = configparser.ConfigParser(interpolation=None)
@@ -107,7 +110,8 @@ def read_hci(folder: PathLike) -> HciScene:
     first = None
     lf = None
     for index in range(T * S):
-        image = cv2.imread(views[index], cv2.IMREAD_COLOR)
+        refuse_special(views[index], "an HCI view (PNG image)")
+        image = decode_image(views[index], cv2.IMREAD_COLOR)
         if image is None:
             raise ValueError(f"{views[index]}: unreadable image")
         if first is None:
@@ -122,6 +126,7 @@ def read_hci(folder: PathLike) -> HciScene:
     disp_min = _number(meta["disp_min"], float, "meta disp_min", cfg_path) if "disp_min" in meta else None
     disp_max = _number(meta["disp_max"], float, "meta disp_max", cfg_path) if "disp_max" in meta else None
     gt_path = os.path.join(folder, "gt_disp_lowres.pfm")
+    refuse_special(gt_path, "an HCI disparity map (PFM)")
     gt = read_pfm(gt_path) if os.path.isfile(gt_path) else None
     if gt is not None and gt.ndim != 2:
         raise ValueError(f"{gt_path}: colour (PF) PFM of shape {gt.shape}; expected a grey Pf "

@@ -8,10 +8,12 @@ keeping 16 bits and alpha, and every failure is a ValueError naming the file.
 from __future__ import annotations
 
 import os
-from typing import Union
+from typing import Optional, Union
 
 import cv2
 import numpy as np
+
+from .._paths import refuse_special
 
 PathLike = Union[str, os.PathLike]
 
@@ -30,6 +32,27 @@ def _is_grey_alpha_png(path: str) -> bool:
     return len(head) == 26 and head[:8] == b"\x89PNG\r\n\x1a\n" and head[25] == 4
 
 
+def decode_image(path: str, flags: int) -> Optional[np.ndarray]:
+    """``cv2.imread(path, flags)`` with OpenCV's errors as liff's, naming ``path``:
+    MemoryError when decoding runs out of memory, ValueError for anything else (such
+    as a header claiming more pixels than OpenCV decodes, ``CV_IO_MAX_IMAGE_PIXELS``,
+    2^30 unless the environment's ``OPENCV_IO_MAX_IMAGE_PIXELS`` says otherwise). None
+    where OpenCV cannot decode the file, as ``cv2.imread``."""
+    try:
+        return cv2.imread(path, flags)
+    except cv2.error as error:
+        reason = f"OpenCV: {getattr(error, 'err', '') or error}".strip()
+        if getattr(error, "code", None) == cv2.Error.StsNoMem:
+            raise MemoryError(f"{path}: not enough memory to decode the image ({reason}); "
+                              "expected an image that fits in the memory available") from None
+        if "CV_IO_MAX_IMAGE_PIXELS" in reason:
+            raise ValueError(f"{path}: the image's header claims more pixels than OpenCV "
+                             f"decodes ({reason}); expected an image of at most 2^30 pixels "
+                             "(OPENCV_IO_MAX_IMAGE_PIXELS)") from None
+        raise ValueError(f"{path}: OpenCV cannot decode the image ({reason}); expected a "
+                         "well-formed image (PNG, TIFF, JPEG, ...)") from None
+
+
 def read_image(path: PathLike) -> np.ndarray:
     """Reads an image as stored (``cv2.IMREAD_UNCHANGED``: 16 bits and alpha survive).
 
@@ -41,13 +64,17 @@ def read_image(path: PathLike) -> np.ndarray:
     Raises
     ------
     ValueError
-        If the file is missing, OpenCV cannot decode it, or it decodes to a dtype liff
-        does not accept (e.g. a signed-integer TIFF).
+        If the file is missing or not a regular file, OpenCV cannot decode it (its header
+        claims more pixels than OpenCV decodes, ...), or it decodes to a dtype liff does
+        not accept (e.g. a signed-integer TIFF).
+    MemoryError
+        If decoding it runs out of memory (:func:`decode_image`).
     """
     path = os.fspath(path)
+    refuse_special(path, "an image")
     if not os.path.isfile(path):
         raise ValueError(f"{path}: no such file; expected an image")
-    image = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+    image = decode_image(path, cv2.IMREAD_UNCHANGED)
     if image is None:
         raise ValueError(f"{path}: unreadable image; expected a format OpenCV decodes "
                          f"(PNG, TIFF, JPEG, ...)")

@@ -12,6 +12,7 @@ from typing import Optional
 import numpy as np
 
 from ._shared import LightFieldFile, PathLike, check_disparity, check_light_field, pick_key
+from .._paths import refuse_special
 
 LIGHT_FIELD_KEY = "light_field"
 DISPARITY_KEY = "gt_disparity"
@@ -45,6 +46,7 @@ def read_numpy(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
         array that is not a light field.
     """
     path = os.fspath(path)
+    refuse_special(path, "a .npy or .npz file")
     try:
         loaded = np.load(path, allow_pickle=False)
     except Exception as e:  # numpy's header parsing raises many kinds on a bad file

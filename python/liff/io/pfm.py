@@ -12,6 +12,8 @@ from typing import Union
 
 import numpy as np
 
+from .._paths import refuse_special
+
 PathLike = Union[str, os.PathLike]
 
 
@@ -29,6 +31,7 @@ def read_pfm(path: PathLike) -> np.ndarray:
         If the file is not a well-formed PFM (names the file and what was wrong).
     """
     path = os.fspath(path)
+    refuse_special(path, "a PFM file")
     try:
         with open(path, "rb") as f:
             data = f.read()

@@ -16,6 +16,7 @@ from .mat import read_mat
 from .mosaic import read_mosaic
 from .numpy_files import read_numpy
 from .views import read_views
+from .._paths import refuse_special
 
 
 def _read_hci(folder: PathLike) -> LightFieldFile:
@@ -98,6 +99,7 @@ def read_light_field(path: PathLike, format: Optional[str] = None, bit_depth=Non
         For .mat and HDF5 files when SciPy / h5py are missing (naming the pip extra).
     """
     path = os.fspath(path)
+    refuse_special(path, "a light field file or folder")
     if not os.path.exists(path):
         raise ValueError(f"{path}: no such file or folder; expected a light field "
                          "(liff.io.read_light_field lists the formats read)")

@@ -19,7 +19,8 @@ For each scene:
    scheduler's own cost: an upper bound of the speed-up), as a speed-up T1 / T(P).
 4. Repeated SIFT (cv2.SIFT on every view) against LiFF, one thread.
 5. In fresh processes: the peak memory a default detection adds to the process
-   (ru_maxrss after, less before) and the page faults of a second detection in a
+   (its peak resident size, VmHWM, reset before the call, less its resident size
+   then) and the page faults of a second detection in a
    worker thread, against the first, with glibc's defaults and with Dask's nanny
    setting (MALLOC_TRIM_THRESHOLD_=65536).
 
@@ -177,11 +178,16 @@ liff.setNumThreads(1)
 out = {}
 def faults():
     return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+def status(field):  # kB, from /proc/self/status
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) for line in f if line.startswith(field + ":"))
 def run():
     detector = liff.LiFF.create()
-    before_rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    with open("/proc/self/clear_refs", "w") as f:
+        f.write("5")  # resets the peak resident size (VmHWM) to the current one
+    before = status("VmRSS")
     f0 = faults(); detector.detectAndCompute(lf, None); f1 = faults()
-    out["peak_added_mb"] = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before_rss) / 1024
+    out["peak_added_mb"] = (status("VmHWM") - before) / 1024
     detector.detectAndCompute(lf, None); f2 = faults()
     out["first"], out["second"] = f1 - f0, f2 - f1
 worker = threading.Thread(target=run)

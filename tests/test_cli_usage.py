@@ -29,7 +29,8 @@ def subcommands():
 def test_version_and_python_dash_m_liff():
     for argv in (["-m", "liff", "--version"], ["-m", "liff.cli", "--version"]):
         done = subprocess.run([sys.executable, *argv], capture_output=True, text=True)
-        assert done.returncode == 0 and done.stdout.startswith(f"liff {liff.__version__} (OpenCV ")
+        assert done.returncode == 0 and done.stdout.startswith(f"liff {liff.__version__} (core on OpenCV ")
+        assert f"cv2 {cv2.__version__}" in done.stdout
     done = subprocess.run([sys.executable, "-m", "liff", "synth"], capture_output=True, text=True)
     assert done.returncode == 2 and "--out" in done.stderr
 

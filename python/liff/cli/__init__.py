@@ -24,8 +24,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="liff", description="Light field features in scale and depth (LiFF).",
         epilog="Axis order, slope sign and file formats: docs/CONVENTIONS.md, docs/INPUTS.md.")
+    import cv2  # two OpenCVs in one process: liff's core and pip's cv2 (README, "What does not cross over")
+
     parser.add_argument("--version", action="version",
-                        version=f"liff {__version__} (OpenCV {opencvVersion()})")
+                        version=f"liff {__version__} (core on OpenCV {opencvVersion()}; "
+                                f"cv2 {cv2.__version__})")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
         command.add_parser(sub)

@@ -57,25 +57,35 @@ constexpr double kBytesPerMB = 1024.0 * 1024.0;
 // keeps every thread busy; memory stays at (batch + 2) scale spaces. Results do
 // not depend on it, so when memory is short the batch shrinks; when even one slice
 // at a time does not fit, fail now, before the large allocations.
-int sliceBatch(const LightField& lf, const detail::MemoryEstimate& need, double limitMB) {
+// Share of the memory limit above which a call gives the survey's kept buffers back
+// before detecting: they are kept for the next call's survey, and the detection cannot
+// use them (other sizes).
+constexpr double kTightMemoryShare = 0.8;
+
+int sliceBatch(const LightField& lf, const detail::MemoryEstimate& need, double limitMB,
+               bool& tight) {
+  tight = false;
   int batch = std::max(1, detail::sliceBatchOverride() ? detail::sliceBatchOverride()
                                                        : cv::getNumThreads());
   const bool automatic = limitMB == 0;
   const double limit = automatic ? detail::availableMemoryBytes() : limitMB * kBytesPerMB;
   if (limit <= 0 || std::isinf(limit)) return batch;  // unknown or unlimited
   while (batch > 1 && need.total(batch) > limit) --batch;
+  tight = need.total(batch) > kTightMemoryShare * limit;
   if (need.total(batch) > limit)
     CV_Error(cv::Error::StsNoMem,
              cv::format("LiFF: a light field of %d x %d views of %d x %d pixels needs about "
                         "%.0f MB (grey light field %.0f MB, 3 scale spaces of %.0f MB, %.0f MB "
-                        "while building one, %d focal slices of %.1f MB), more than the memory "
+                        "while building one, %d focal slices of %.1f MB, slope survey %.0f MB), "
+                        "more than the memory "
                         "limit of %.4g MB (%s); "
                         "expected a light field that fits: crop or downsample the views, or "
                         "raise the limit with setMemoryLimitMB",
                         lf.T, lf.S, lf.V, lf.U, need.total(1) / kBytesPerMB,
                         need.lightFieldBytes / kBytesPerMB, need.windowSliceBytes / kBytesPerMB,
                         need.buildBytes / kBytesPerMB, need.slicesAhead(1),
-                        need.focalSliceBytes / kBytesPerMB, limit / kBytesPerMB,
+                        need.focalSliceBytes / kBytesPerMB, need.surveyBytes / kBytesPerMB,
+                        limit / kBytesPerMB,
                         automatic ? "automatic: the memory available now" : "setMemoryLimitMB"));
   return batch;
 }
@@ -227,7 +237,9 @@ detail::MemoryEstimate LiFF_Impl::convert(const Parameters& parameters, const cv
   detail::MemoryEstimate need = detail::sliceMemory(lf.viewSize(), parameters.nOctaveLayers,
                                                     octaves, parameters.firstOctave);
   need.lightFieldBytes = detail::conversionBytes(input, lf);
-  batch = sliceBatch(lf, need, memoryLimitMB_);
+  if (detail::automaticRange(parameters))  // alpha (2 or 4 channels) may become weights
+    need.surveyBytes = detail::surveyMemoryBytes(lf, input.channels() % 2 == 0);
+  batch = sliceBatch(lf, need, memoryLimitMB_, need.nearLimit);
   detail::convertLightField(input, lf);
   return need;
 }
@@ -258,6 +270,9 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   const SlopePlan slices =
       planSlices(parameters, lf, batch, useProvidedKeypoints ? &keypoints : nullptr);
   remember(slices);
+  // Near the memory limit, the buffers the survey freed (kept for the next call's survey,
+  // of sizes the detection does not use) go back now rather than sit beside its own.
+  if (need.nearLimit) releaseWorkingMemory();
 
   const bool wantDescriptors = descriptorsOut.needed();
   Call call{parameters,

@@ -21,18 +21,21 @@ double scaleSpaceBytes(cv::Size viewSize, int layers, int octaves, int firstOcta
 ///   grey light field (+ weights)           lightFieldBytes
 ///   + (batch + 2) detection pyramids        (the sliding window over slopes)
 ///   + batch * (full - detection pyramid + upsampled base)   while building
-///   + the focal slices rendered ahead       (at least batch + 1 per pass).
+///   + the focal slices rendered ahead       (at least batch + 1 per pass)
+///   + the slope survey's decimated views     (kept for the next call's survey).
 struct MemoryEstimate {
   double lightFieldBytes = 0;
   double windowSliceBytes = 0;  // one detection-only pyramid
   double buildBytes = 0;        // extra while one slice is being built
   double focalSliceBytes = 0;   // one focal slice
   int slicesPerPass = 1;        // focal slices rendered in one pass, at least
+  double surveyBytes = 0;       // the survey's decimated light fields (surveyMemoryBytes)
+  bool nearLimit = false;       // the call's total is close to its memory limit
 
   int slicesAhead(int batch) const { return std::max(slicesPerPass, batch + 1); }
   double total(int batch) const {
     return lightFieldBytes + (batch + 2) * windowSliceBytes + batch * buildBytes +
-           slicesAhead(batch) * focalSliceBytes;
+           slicesAhead(batch) * focalSliceBytes + surveyBytes;
   }
 };
 

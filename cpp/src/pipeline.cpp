@@ -136,6 +136,10 @@ Detections detectInSlices(const Call& call, const cv::Mat& mask, bool wantDescri
   if (wantDescriptors) all.descriptors.create(0, kDescriptorSize, call.parameters.descriptorType);
   if (call.settings.octaves < 1) return all;
   SliceWindow window(call.lf, call.plan, call.settings, call.batch, call.renderAhead);
+  // Each batch's descriptors, joined once at the end: growing one Mat batch by batch
+  // would leave every outgrown buffer behind (kept as working memory, of sizes nothing
+  // else in the call asks for).
+  std::vector<cv::Mat> blocks;
   for (size_t first = 0; first < searched.size(); first += call.batch) {
     const std::vector<int> batch(searched.begin() + first,
                                  searched.begin() + std::min(searched.size(), first + call.batch));
@@ -157,12 +161,13 @@ Detections detectInSlices(const Call& call, const cv::Mat& mask, bool wantDescri
       cv::Mat block(int(keypoints.size()), kDescriptorSize, call.parameters.descriptorType);
       describe(keypoints, nearestSlices(call.plan, keypoints), window, call.parameters.rootSift,
                block);
-      all.descriptors.push_back(block);
+      blocks.push_back(block);
     }
     // Keep only what the next batch needs from here on (its lower neighbour); the
     // others' memory goes to the next slices.
     if (first + call.batch < searched.size()) window.releaseBelow(searched[first + call.batch] - 1);
   }
+  if (!blocks.empty()) cv::vconcat(blocks, all.descriptors);
   return all;
 }
 

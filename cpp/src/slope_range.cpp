@@ -324,18 +324,45 @@ SlopeSurvey surveyLevels(const std::vector<LightField>& levels, int finest, doub
   return survey;
 }
 
+namespace {
+
+// The survey's decimation factors for views of `side` (their shorter side): the finest
+// and coarsest levels'; false when the views are too small to survey.
+bool surveyLevelsFor(int side, int& finest, int& coarsest) {
+  finest = kFinestDecimation;
+  while (finest > 2 && side / finest < kFinestSurveyView) finest /= 2;
+  if (side / finest < kSmallestSurveyView) return false;
+  coarsest = finest;
+  while (coarsest < kCoarsestDecimation && side / (coarsest * 2) >= kCoarsestSurveyView)
+    coarsest *= 2;
+  return true;
+}
+
+}  // namespace
+
+double surveyMemoryBytes(const LightField& lf, bool weighted) {
+  int finest, coarsest;
+  if (!surveyed(lf.T, lf.S) || !surveyLevelsFor(std::min(lf.V, lf.U), finest, coarsest))
+    return 0;
+  const double planes = weighted ? 2 : 1;  // values (and weights)
+  auto viewBytes = [&](int factor) {
+    return double(lf.V / factor) * double(lf.U / factor) * sizeof(float) * planes;
+  };
+  const int sweepFactor = finest / 2;
+  double bytes = sweepFactor > 1 ? (lf.T + lf.S - 1) * viewBytes(sweepFactor) : 0;
+  for (int factor = finest; factor <= coarsest; factor *= 2)
+    bytes += double(lf.T) * lf.S * viewBytes(factor);
+  return bytes;
+}
+
 SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, double hi,
                          int batch) {
   const double unit = sliceSpacing(lf.T, lf.S);
   const double reach = largestSlope(lf.T, lf.S, lf.V, lf.U);
   const int side = std::min(lf.V, lf.U);
-  int finest = kFinestDecimation;
-  while (finest > 2 && side / finest < kFinestSurveyView) finest /= 2;
-  if (side / finest < kSmallestSurveyView) return {};  // views too small to survey
+  int finest, coarsest;
+  if (!surveyLevelsFor(side, finest, coarsest)) return {};  // views too small to survey
   if (!surveyed(lf.T, lf.S)) return {};  // two views: ghosts everywhere (automaticPlan)
-  int coarsest = finest;
-  while (coarsest < kCoarsestDecimation && side / (coarsest * 2) >= kCoarsestSurveyView)
-    coarsest *= 2;
   // The plane sweep's light field (decimated half as much as the finest level: fine
   // textures survive there; only the views the sweep reads are kept) and the levels',
   // finest first, each from the last (one pass over the full light field in all).

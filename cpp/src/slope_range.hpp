@@ -40,6 +40,13 @@ double largestSlope(int T, int S, int V, int U);
 /// `keypoint` is in `lf`'s pixels and its slope in `lf`'s pixels per view step.
 double viewCoherence(const LightField& lf, const cv::KeyPoint& keypoint, double slope, int layers);
 
+/// Bytes of the decimated light fields surveySlopes makes for `lf` (0 when it does not
+/// survey): the plane sweep's views and every level's. They are freed when the survey
+/// ends, but the working memory keeps them for the next call's survey (working_memory.hpp),
+/// so they count through the whole call (MemoryEstimate::surveyBytes).
+/// `weighted`: the light field carries alpha weights (decimated alongside).
+double surveyMemoryBytes(const LightField& lf, bool weighted);
+
 /// What the pre-pass found: the slopes of the coherent features of its finest level
 /// (full-resolution pixels per view step) and that level's slice spacing.
 struct SlopeSurvey {

@@ -11,6 +11,9 @@
 #if defined(__unix__) || defined(__APPLE__)
 #include <pthread.h>
 #endif
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 namespace liff {
 namespace detail {
@@ -185,7 +188,12 @@ void installWorkingMemory() {
 
 }  // namespace detail
 
-void releaseWorkingMemory() { detail::allocator().release(); }
+void releaseWorkingMemory() {
+  detail::allocator().release();
+#if defined(__GLIBC__)
+  malloc_trim(0);  // glibc keeps freed heap memory otherwise: give it back to the system
+#endif
+}
 
 size_t keptWorkingMemoryBytes() { return detail::allocator().keptBytes(); }
 

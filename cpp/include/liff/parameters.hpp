@@ -43,7 +43,7 @@
   X(int, firstOctave, FirstOctave, -1,                                                          \
     "first octave of each focal slice's scale space, as SIFT's: -1 upsamples the views 2x "   \
     "first (cv::SIFT's default; finds the smallest features), 0 starts at the views' own "    \
-    "size (the authors' toolbox; about a third of the time); in [-1, 0]")
+    "size (the authors' toolbox; about half the time); in [-1, 0]")
 
 namespace liff {
 

@@ -257,3 +257,16 @@ def test_non_finite_sample_is_located(bad):
         liff.LiFF.create().detect(lf)
     assert "view 6, t = 1, s = 2, pixel row 7, column 33" in str(info.value)
     assert np.isnan(lf[1, 2, 7, 33]) or np.isinf(lf[1, 2, 7, 33])  # input untouched
+
+
+@pytest.mark.parametrize("name", ["nfeatures", "nOctaveLayers", "numSlopes", "descriptorType",
+                                  "firstOctave"])
+@pytest.mark.parametrize("value", [True, False, np.bool_(True)])
+def test_a_bool_for_an_integer_parameter_is_a_type_error(name, value):
+    """True and False are ints to Python; for a count, an octave or a type code they are
+    a mistake (firstOctave=True had been taken as 1, False as 0)."""
+    with pytest.raises(TypeError, match=f"{name} = .*expected an integer, not a bool"):
+        liff.LiFF.create(**{name: value})
+    accessor = next(p.accessor for p in liff.PARAMETERS if p.name == name)
+    with pytest.raises(TypeError, match="not a bool"):
+        getattr(liff.LiFF.create(), "set" + accessor)(value)

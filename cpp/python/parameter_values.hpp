@@ -28,6 +28,11 @@ T number(const py::handle& value, const char* name) {
     return PyObject_IsTrue(value.ptr()) == 1;
   } else if constexpr (std::is_same_v<T, int>) {
     if (PyFloat_Check(value.ptr())) throw py::type_error(what + "; expected an integer");
+    // True and False are integers to Python, but a bool given for a count, an octave or a
+    // type code is a mistake (firstOctave=True would be a silent 1).
+    const std::string type = py::str(py::type::of(value).attr("__name__"));
+    if (PyBool_Check(value.ptr()) || type == "bool_" || type == "bool")
+      throw py::type_error(what + "; expected an integer, not a bool");
     const py::object index = py::reinterpret_steal<py::object>(PyNumber_Index(value.ptr()));
     if (!index) {
       PyErr_Clear();

@@ -40,7 +40,7 @@ __version__ = "0.1.0"
 
 # Submodules load on first use (``import liff; liff.io.read_light_field(...)`` works
 # without paying for readers, plotting or pycolmap at ``import liff``).
-_SUBMODULES = frozenset({"batch", "captures", "colmap", "demo", "feature_file", "io",
+_SUBMODULES = frozenset({"batch", "captures", "colmap", "demo", "feature_file", "hloc", "io",
                          "keypoint_rows", "matching", "outputs", "plot", "preprocess",
                          "synthetic"})
 

@@ -1,0 +1,143 @@
+"""Features and matches in hloc's files, for its matchers, triangulation and mapping.
+
+hloc (Sarlin et al., "From Coarse to Fine", CVPR 2019; github.com/cvg/Hierarchical-
+Localization) keeps features in one HDF5 file, a group per image named by the image's
+path relative to its image folder, and matches in another, a group per pair. Layout, as
+hloc's ``extract_features`` writes and ``utils/io.py`` reads them:
+
+* features: ``keypoints`` (N, 2) float32, pixel (x, y) with pixel centres at integers
+  (OpenCV's convention: hloc adds 0.5 when it hands them to COLMAP); ``scores`` (N,)
+  float32; ``descriptors`` (D, N) float32, one column per keypoint; ``image_size`` (2,)
+  int, (width, height); for DoG features also ``scales`` (N,) and ``oris`` (N,),
+  COLMAP's scale and orientation (degrees). liff adds ``slopes`` (N,) float32, pixels
+  per view step, which hloc ignores.
+* matches: the group ``names_to_pair(name0, name1)`` = ``name0/name1`` with each name's
+  ``/`` replaced by ``-``, holding ``matches0`` (N0,) int32, the index in image 1 of
+  each keypoint of image 0 or -1, and ``matching_scores0`` (N0,) float32.
+
+A light field's features are its centre view's: write the centre view as the image hloc
+(and COLMAP) is given, under the same name.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Optional, Sequence
+
+import cv2
+import numpy as np
+
+from .colmap import keypoints_to_colmap
+from .keypoint_rows import keypoint_slopes
+
+
+def names_to_pair(name0: str, name1: str) -> str:
+    """hloc's key of the pair (name0, name1) in a matches file."""
+    return "/".join((name0.replace("/", "-"), name1.replace("/", "-")))
+
+
+def _check_name(name: str) -> str:
+    if not isinstance(name, str) or not name or name.startswith("/") or "//" in name:
+        raise ValueError(f"image name {name!r}; expected a relative path such as 'scene/0001.png'")
+    return name
+
+
+def write_features(path: "os.PathLike", name: str, keypoints: Sequence[cv2.KeyPoint],
+                   descriptors: Optional[np.ndarray], image_size, overwrite: bool = False) -> None:
+    """Adds one light field's features to the hloc features file ``path`` (made if missing).
+
+    Parameters
+    ----------
+    path : path-like
+        The HDF5 features file (``feats-*.h5`` in hloc's outputs).
+    name : str
+        The image's name relative to the image folder given to hloc (its centre view).
+    keypoints : sequence of cv2.KeyPoint
+        From :class:`liff.LiFF`, in centre-view pixels; their slopes go to ``slopes``.
+    descriptors : ndarray, shape (N, D), or None when N == 0
+        As ``detectAndCompute`` returns them; stored as float32 (D, N).
+    image_size : (width, height) of the centre view, pixels.
+    overwrite : bool
+        Replace a group of the same name; otherwise that is a ValueError.
+
+    Raises
+    ------
+    ValueError
+        For a name that is not a relative path, descriptors whose rows do not match the
+        keypoints, or an existing group (without ``overwrite``).
+    """
+    import h5py  # optional dependency (pip install "liff[hdf5]")
+
+    _check_name(name)
+    n = len(keypoints)
+    if descriptors is None:
+        descriptors = np.zeros((0, 128), np.float32)
+    descriptors = np.asarray(descriptors)
+    if descriptors.ndim != 2 or descriptors.shape[0] != n:
+        raise ValueError(f"descriptors of shape {descriptors.shape}; expected ({n}, D), one "
+                         "row per keypoint")
+    width, height = (int(v) for v in image_size)
+    colmap = keypoints_to_colmap(keypoints)  # (x + 0.5, y + 0.5, scale, orientation)
+    with h5py.File(path, "a") as f:
+        if name in f:
+            if not overwrite:
+                raise ValueError(f"{os.fspath(path)} already holds features of {name!r}; "
+                                 "expected a new name, or overwrite=True")
+            del f[name]
+        group = f.create_group(name)
+        group.create_dataset("keypoints", data=(colmap[:, :2] - 0.5).astype(np.float32))
+        group.create_dataset("scores", data=np.array([k.response for k in keypoints], np.float32))
+        group.create_dataset("descriptors", data=descriptors.astype(np.float32).T)
+        group.create_dataset("image_size", data=np.array([width, height]))
+        group.create_dataset("scales", data=colmap[:, 2].astype(np.float32))
+        group.create_dataset("oris", data=np.degrees(colmap[:, 3]).astype(np.float32))
+        group.create_dataset("slopes", data=keypoint_slopes(keypoints).astype(np.float32))
+
+
+def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence[cv2.DMatch],
+                  num_keypoints0: int, overwrite: bool = False) -> None:
+    """Adds the matches of one pair to the hloc matches file ``path`` (made if missing).
+
+    Parameters
+    ----------
+    path : path-like
+        The HDF5 matches file.
+    name0, name1 : str
+        The two images' names, as in the features file.
+    matches : sequence of cv2.DMatch
+        ``queryIdx`` in image 0, ``trainIdx`` in image 1 (as from ``BFMatcher.match``
+        or liff.matching); each query keypoint at most once.
+    num_keypoints0 : int
+        Keypoints of image 0 (the length of ``matches0``).
+    overwrite : bool
+        Replace the pair's group; otherwise an existing pair is a ValueError.
+
+    Notes
+    -----
+    ``matching_scores0`` is 1 / (1 + distance) for a match (higher is better, as hloc's
+    scores are), 0 elsewhere.
+    """
+    import h5py
+
+    _check_name(name0)
+    _check_name(name1)
+    matches0 = np.full(int(num_keypoints0), -1, np.int32)
+    scores0 = np.zeros(int(num_keypoints0), np.float32)
+    for m in matches:
+        if not 0 <= m.queryIdx < num_keypoints0:
+            raise ValueError(f"match queryIdx {m.queryIdx}; expected in [0, {num_keypoints0})")
+        if matches0[m.queryIdx] != -1:
+            raise ValueError(f"keypoint {m.queryIdx} of {name0!r} matched twice; expected "
+                             "each at most once")
+        matches0[m.queryIdx] = m.trainIdx
+        scores0[m.queryIdx] = 1.0 / (1.0 + m.distance)
+    pair = names_to_pair(name0, name1)
+    with h5py.File(path, "a") as f:
+        if pair in f:
+            if not overwrite:
+                raise ValueError(f"{os.fspath(path)} already holds the pair {pair!r}; expected a "
+                                 "new pair, or overwrite=True")
+            del f[pair]
+        group = f.create_group(pair)
+        group.create_dataset("matches0", data=matches0)
+        group.create_dataset("matching_scores0", data=scores0)

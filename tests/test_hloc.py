@@ -1,0 +1,76 @@
+"""liff.hloc: features and matches in hloc's HDF5 layout, read back as hloc's readers
+read them (hloc/utils/io.py: get_keypoints, get_matches, find_pair)."""
+
+import cv2
+import numpy as np
+import pytest
+
+import liff
+from liff import synthetic
+from liff.hloc import names_to_pair, write_features, write_matches
+
+h5py = pytest.importorskip("h5py")
+
+
+@pytest.fixture(scope="module")
+def two_views():
+    shape = (5, 5, 96, 128)
+    disks = synthetic.paper_disks(n=10, shape=shape, seed=1)
+    lf = synthetic.render_disks(disks, shape)
+    detector = liff.LiFF.create()
+    return lf, detector.detectAndCompute(lf, None)
+
+
+def test_features_read_as_hloc_reads_them(tmp_path, two_views):
+    lf, (keypoints, descriptors) = two_views
+    path = tmp_path / "feats-liff.h5"
+    write_features(path, "scene/centre.png", keypoints, descriptors, (lf.shape[3], lf.shape[2]))
+    with h5py.File(path, "r") as f:
+        group = f["scene/centre.png"]  # hloc: hfile[name]
+        kp = group["keypoints"].__array__()
+        assert kp.dtype == np.float32 and kp.shape == (len(keypoints), 2)
+        np.testing.assert_allclose(kp, [k.pt for k in keypoints], atol=1e-4)  # pixel centres at 0
+        desc = group["descriptors"].__array__()
+        assert desc.dtype == np.float32 and desc.shape == (128, len(keypoints))  # D x N
+        np.testing.assert_array_equal(desc.T, descriptors)
+        assert list(group["image_size"][()]) == [128, 96]  # (width, height)
+        np.testing.assert_allclose(group["scores"][()], [k.response for k in keypoints], rtol=1e-6)
+        np.testing.assert_allclose(group["scales"][()], [k.size / 2 for k in keypoints], rtol=1e-6)
+        np.testing.assert_allclose(group["slopes"][()], liff.keypoint_slopes(keypoints), atol=1e-6)
+        assert group["oris"].shape == (len(keypoints),)
+
+
+def test_matches_read_as_hloc_reads_them(tmp_path, two_views):
+    _, (keypoints, descriptors) = two_views
+    matches = cv2.BFMatcher(cv2.NORM_L2, crossCheck=True).match(descriptors, descriptors)
+    path = tmp_path / "matches.h5"
+    write_matches(path, "a/0.png", "a/1.png", matches, len(keypoints))
+    with h5py.File(path, "r") as f:
+        pair = names_to_pair("a/0.png", "a/1.png")
+        assert pair == "a-0.png/a-1.png" and pair in f  # hloc's find_pair
+        matches0 = f[pair]["matches0"].__array__()
+        scores0 = f[pair]["matching_scores0"].__array__()
+    assert matches0.shape == (len(keypoints),) and scores0.dtype == np.float32
+    # hloc's get_matches: the pairs (i, matches0[i]) where matches0[i] != -1
+    idx = np.where(matches0 != -1)[0]
+    assert len(idx) == len(matches)
+    assert all(matches0[m.queryIdx] == m.trainIdx for m in matches)
+    assert np.all(scores0[idx] > 0) and np.all(scores0[matches0 == -1] == 0)
+
+
+def test_clear_errors(tmp_path, two_views):
+    lf, (keypoints, descriptors) = two_views
+    path = tmp_path / "f.h5"
+    write_features(path, "x.png", keypoints, descriptors, (128, 96))
+    with pytest.raises(ValueError, match="already holds features"):
+        write_features(path, "x.png", keypoints, descriptors, (128, 96))
+    write_features(path, "x.png", keypoints, descriptors, (128, 96), overwrite=True)
+    with pytest.raises(ValueError, match="expected a relative path"):
+        write_features(path, "/abs.png", keypoints, descriptors, (128, 96))
+    with pytest.raises(ValueError, match="one row per keypoint"):
+        write_features(path, "y.png", keypoints, descriptors[:-1], (128, 96))
+    twice = [cv2.DMatch(0, 1, 0.5), cv2.DMatch(0, 2, 0.7)]
+    with pytest.raises(ValueError, match="matched twice"):
+        write_matches(tmp_path / "m.h5", "a.png", "b.png", twice, 3)
+    with pytest.raises(ValueError, match="queryIdx 5"):
+        write_matches(tmp_path / "m.h5", "a.png", "b.png", [cv2.DMatch(5, 0, 0.1)], 3)

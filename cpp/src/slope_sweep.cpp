@@ -29,8 +29,13 @@ constexpr float kTextureToResidual = 3.f;
 /// a feature at a voting pixel: the finest the sweep's resolution (usually half the
 /// light field's) shows well.
 constexpr double kDogSigma = 1.0;
-/// Slopes are swept in this many chunks, whatever the number of threads.
+/// Slopes are summed in this many chunks (merged in order after), whatever the number
+/// of threads.
 constexpr int kSweepChunks = 4;
+/// Slopes whose costs are computed at once (one per task), each in its own buffers.
+constexpr int kSweepSlopesPerGroup = 16;
+/// Rows of the votes per task of folding a group's costs into them.
+constexpr int kSweepRowsPerBand = 16;
 /// A slope counts when its votes cover this share of the view's pixels (a 9 x 9 patch of
 /// a 128 x 128 view): a layer large enough to hold features, not scattered edge votes.
 constexpr double kMinVoteShare = 0.005;
@@ -92,9 +97,11 @@ Sampling sampling(const Compared& c, double m) {
 // |L_view(x - m d) - L_ref(x - f)| (d the view's offset from the reference along its
 // axis, f the fractional part of m d): the reference is interpolated as the view is, so
 // that the residual at the right slope is noise, not the blur of interpolating one side
-// only; summed over the window, where every view sees the pixel; folded into `votes`.
-void sweepSlope(const cv::Mat& reference, const std::vector<Compared>& views, double m, int k,
-                Votes& votes, Scratch& scratch) {
+// only; summed over the window, where every view sees the pixel (then folded into the
+// votes, foldVotes). Into `scratch.boxed`, over `roi`, the region every compared view
+// sees; false when that region is smaller than a window.
+bool slopeCost(const cv::Mat& reference, const std::vector<Compared>& views, double m,
+               Scratch& scratch, cv::Rect& roi) {
   int x0 = 0, x1 = reference.cols, y0 = 0, y1 = reference.rows;
   for (const Compared& c : views) {
     const Sampling at = sampling(c, m);
@@ -105,8 +112,8 @@ void sweepSlope(const cv::Mat& reference, const std::vector<Compared>& views, do
     upper = std::min(upper, (c.alongX ? reference.cols : reference.rows) + std::min(at.i, 0));
   }
   const int window = 2 * kWindowRadius + 1;
-  if (x1 - x0 < window || y1 - y0 < window) return;
-  const cv::Rect roi(x0, y0, x1 - x0, y1 - y0);
+  if (x1 - x0 < window || y1 - y0 < window) return false;
+  roi = cv::Rect(x0, y0, x1 - x0, y1 - y0);
   // One pass per row and view: |(1 - f) (L_v - L_ref)(near) + f (L_v - L_ref)(far)|, the
   // far samples one pixel further along the view's axis.
   scratch.cost.create(reference.size(), CV_32F);  // kept from slope to slope
@@ -133,9 +140,22 @@ void sweepSlope(const cv::Mat& reference, const std::vector<Compared>& views, do
         out[x] += std::abs(w0 * (view[x] - ref[x]) + w1 * (viewFar[x] - refFar[x]));
     }
   }
+  // (Its sums run left to right and top to bottom: a pixel's value depends on the
+  // pixels before it only, so the region's far edges, which read past it, are never
+  // used below.)
   cv::boxFilter(cost, boxed, -1, cv::Size(window, window), cv::Point(-1, -1), false);
-  // Only where the whole window lies inside the region every view sees.
-  for (int y = kWindowRadius; y < roi.height - kWindowRadius; ++y) {
+  return true;
+}
+
+// Folds slope k's box-filtered cost (`boxed` over `roi`) into `votes` on the votes'
+// rows [rowBegin, rowEnd), only where the whole window lies inside the region every
+// view sees.
+void foldVotes(const cv::Mat& boxed, const cv::Rect& roi, int k, Votes& votes, int rowBegin,
+               int rowEnd) {
+  const int x0 = roi.x, y0 = roi.y;
+  const int yBegin = std::max(kWindowRadius, rowBegin - y0);
+  const int yEnd = std::min(roi.height - kWindowRadius, rowEnd - y0);
+  for (int y = yBegin; y < yEnd; ++y) {
     const float* c = boxed.ptr<float>(y);
     float* best = votes.best.ptr<float>(y + y0) + x0;
     int* index = votes.index.ptr<int>(y + y0) + x0;
@@ -192,12 +212,34 @@ Votes sweepAll(const cv::Mat& reference, const std::vector<Compared>& views, lon
   const int chunks = std::max(1, std::min(n, kSweepChunks));
   std::vector<Votes> partial;
   for (int c = 0; c < chunks; ++c) partial.emplace_back(reference.size());
-  parallelFor("survey plane sweep", cv::Range(0, chunks), [&](const cv::Range& range) {
-    Scratch scratch;
-    for (int c = range.start; c < range.end; ++c)
-      for (int k = c * n / chunks; k < (c + 1) * n / chunks; ++k)
-        sweepSlope(reference, views, double(first + k) * g, k, partial[c], scratch);
-  });
+  std::vector<int> chunkOf(n);  // chunk c holds slopes [c n / chunks, (c + 1) n / chunks)
+  for (int c = 0; c < chunks; ++c)
+    for (int k = c * n / chunks; k < (c + 1) * n / chunks; ++k) chunkOf[k] = c;
+  // Slopes in groups: each group's costs in parallel, one slope a task in its own
+  // buffers, then folded into their chunk's votes in slope order, in parallel over row
+  // bands: every pixel's sums run as one chunk's loop over its slopes would, so the
+  // votes are the same, and all threads have work whatever the number of chunks.
+  std::vector<Scratch> scratch(std::min(n, kSweepSlopesPerGroup));
+  std::vector<cv::Rect> roi(scratch.size());
+  std::vector<char> swept(scratch.size());
+  const int bands = (reference.rows + kSweepRowsPerBand - 1) / kSweepRowsPerBand;
+  for (int g0 = 0; g0 < n; g0 += int(scratch.size())) {
+    const int g1 = std::min(n, g0 + int(scratch.size()));
+    parallelFor("survey plane sweep", cv::Range(g0, g1), [&](const cv::Range& range) {
+      for (int k = range.start; k < range.end; ++k)
+        swept[k - g0] = slopeCost(reference, views, double(first + k) * g, scratch[k - g0],
+                                  roi[k - g0]);
+    });
+    parallelFor("survey plane sweep", cv::Range(0, bands), [&](const cv::Range& range) {
+      for (int band = range.start; band < range.end; ++band) {
+        const int r0 = band * kSweepRowsPerBand;
+        const int r1 = std::min(reference.rows, r0 + kSweepRowsPerBand);
+        for (int k = g0; k < g1; ++k)
+          if (swept[k - g0])
+            foldVotes(scratch[k - g0].boxed, roi[k - g0], k, partial[chunkOf[k]], r0, r1);
+      }
+    });
+  }
   Votes& all = partial[0];
   for (int c = 1; c < chunks; ++c) {
     all.sum += partial[c].sum;

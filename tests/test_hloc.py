@@ -62,7 +62,7 @@ def test_clear_errors(tmp_path, two_views):
     lf, (keypoints, descriptors) = two_views
     path = tmp_path / "f.h5"
     write_features(path, "x.png", keypoints, descriptors, (128, 96))
-    with pytest.raises(ValueError, match="already holds features"):
+    with pytest.raises(ValueError, match="already holds features of"):
         write_features(path, "x.png", keypoints, descriptors, (128, 96))
     write_features(path, "x.png", keypoints, descriptors, (128, 96), overwrite=True)
     with pytest.raises(ValueError, match="expected a relative path"):

@@ -36,6 +36,22 @@ def names_to_pair(name0: str, name1: str) -> str:
     return "/".join((name0.replace("/", "-"), name1.replace("/", "-")))
 
 
+def _write_group(path, key: str, what: str, datasets: dict, overwrite: bool) -> None:
+    """Writes ``datasets`` as the group ``key`` of the HDF5 file ``path`` (made if
+    missing); an existing group is replaced with ``overwrite``, else a ValueError."""
+    import h5py  # optional dependency (pip install "liff[hdf5]")
+
+    with h5py.File(path, "a") as f:
+        if key in f:
+            if not overwrite:
+                raise ValueError(f"{os.fspath(path)} already holds {what} {key!r}; expected a "
+                                 "new one, or overwrite=True")
+            del f[key]
+        group = f.create_group(key)
+        for name, data in datasets.items():
+            group.create_dataset(name, data=data)
+
+
 def _check_name(name: str) -> str:
     if not isinstance(name, str) or not name or name.startswith("/") or "//" in name:
         raise ValueError(f"image name {name!r}; expected a relative path such as 'scene/0001.png'")
@@ -66,8 +82,6 @@ def write_features(path: "os.PathLike", name: str, keypoints: Sequence[cv2.KeyPo
         For a name that is not a relative path, descriptors whose rows do not match the
         keypoints, or an existing group (without ``overwrite``).
     """
-    import h5py  # optional dependency (pip install "liff[hdf5]")
-
     _check_name(name)
     n = len(keypoints)
     if descriptors is None:
@@ -78,20 +92,15 @@ def write_features(path: "os.PathLike", name: str, keypoints: Sequence[cv2.KeyPo
                          "row per keypoint")
     width, height = (int(v) for v in image_size)
     colmap = keypoints_to_colmap(keypoints)  # (x + 0.5, y + 0.5, scale, orientation)
-    with h5py.File(path, "a") as f:
-        if name in f:
-            if not overwrite:
-                raise ValueError(f"{os.fspath(path)} already holds features of {name!r}; "
-                                 "expected a new name, or overwrite=True")
-            del f[name]
-        group = f.create_group(name)
-        group.create_dataset("keypoints", data=(colmap[:, :2] - 0.5).astype(np.float32))
-        group.create_dataset("scores", data=np.array([k.response for k in keypoints], np.float32))
-        group.create_dataset("descriptors", data=descriptors.astype(np.float32).T)
-        group.create_dataset("image_size", data=np.array([width, height]))
-        group.create_dataset("scales", data=colmap[:, 2].astype(np.float32))
-        group.create_dataset("oris", data=np.degrees(colmap[:, 3]).astype(np.float32))
-        group.create_dataset("slopes", data=keypoint_slopes(keypoints).astype(np.float32))
+    _write_group(path, name, "features of", {
+        "keypoints": (colmap[:, :2] - 0.5).astype(np.float32),
+        "scores": np.array([k.response for k in keypoints], np.float32),
+        "descriptors": descriptors.astype(np.float32).T,
+        "image_size": np.array([width, height]),
+        "scales": colmap[:, 2].astype(np.float32),
+        "oris": np.degrees(colmap[:, 3]).astype(np.float32),
+        "slopes": keypoint_slopes(keypoints).astype(np.float32),
+    }, overwrite)
 
 
 def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence[cv2.DMatch],
@@ -117,8 +126,6 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
     ``matching_scores0`` is 1 / (1 + distance) for a match (higher is better, as hloc's
     scores are), 0 elsewhere.
     """
-    import h5py
-
     _check_name(name0)
     _check_name(name1)
     matches0 = np.full(int(num_keypoints0), -1, np.int32)
@@ -131,13 +138,5 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
                              "each at most once")
         matches0[m.queryIdx] = m.trainIdx
         scores0[m.queryIdx] = 1.0 / (1.0 + m.distance)
-    pair = names_to_pair(name0, name1)
-    with h5py.File(path, "a") as f:
-        if pair in f:
-            if not overwrite:
-                raise ValueError(f"{os.fspath(path)} already holds the pair {pair!r}; expected a "
-                                 "new pair, or overwrite=True")
-            del f[pair]
-        group = f.create_group(pair)
-        group.create_dataset("matches0", data=matches0)
-        group.create_dataset("matching_scores0", data=scores0)
+    _write_group(path, names_to_pair(name0, name1), "the pair",
+                 {"matches0": matches0, "matching_scores0": scores0}, overwrite)

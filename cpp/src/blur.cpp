@@ -3,9 +3,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
-#include <cstring>
 
 #include "hot_loop.hpp"
+#include "vec8.hpp"
 
 namespace liff {
 namespace detail {
@@ -22,26 +22,9 @@ GaussianTaps gaussianTaps(double sigma) {
 
 namespace {
 
-// Floats per vector and vectors per step of the inner loops: 4 independent
-// accumulators hide the latency of the adds (one dependency chain per vector).
-constexpr int kLanes = 8;
+// Vectors per step of the inner loops: 4 independent accumulators hide the latency
+// of the adds (one dependency chain per vector).
 constexpr int kVectors = 4;
-
-#if defined(__GNUC__) || defined(__clang__)
-// The helpers below are inlined; GCC's note that passing an AVX vector by value
-// changes the ABI without AVX enabled concerns calls across files, which never happen.
-#pragma GCC diagnostic ignored "-Wpsabi"
-// A generic 8-float vector: one AVX register in the AVX2 build, two SSE registers in
-// the baseline one. Loads and stores are unaligned (memcpy compiles to one move).
-typedef float Vec8 __attribute__((vector_size(kLanes * sizeof(float))));
-inline Vec8 load(const float* p) {
-  Vec8 v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-inline void store(float* p, Vec8 v) { std::memcpy(p, &v, sizeof v); }
-#define LIFF_BLUR_VECTORS 1
-#endif
 
 }  // namespace
 
@@ -54,7 +37,7 @@ LIFF_FMA_LOOP void symmetricTaps(const float* const* rows, const float* taps, in
                                  int width, float* out) {
   int x = 0;
   const float* centre = rows[radius];
-#ifdef LIFF_BLUR_VECTORS
+#ifdef LIFF_VEC8
   const float k0 = taps[0];  // a scalar operand broadcasts (one vbroadcastss)
   for (; x + kLanes * kVectors <= width; x += kLanes * kVectors) {
     Vec8 acc[kVectors];
@@ -91,7 +74,7 @@ LIFF_FMA_LOOP void symmetricTapsTwoRows(const float* const* rows, const float* t
                                         int width, float* out0, float* out1) {
   int x = 0;
   const float k0 = taps[0];
-#ifdef LIFF_BLUR_VECTORS
+#ifdef LIFF_VEC8
   constexpr int kPair = 2;  // vectors per step: 2 x 2 accumulators and 2 x 2 carried rows
   for (; x + kLanes * kPair <= width; x += kLanes * kPair) {
     Vec8 acc0[kPair], acc1[kPair], low[kPair], high[kPair];

@@ -1,6 +1,7 @@
 #include "focal_stack.hpp"
 
 #include "hot_loop.hpp"
+#include "vec8.hpp"
 #include "profile.hpp"
 
 #include <algorithm>
@@ -34,23 +35,68 @@ struct Shift {
   }
 };
 
-// Adds one view row, sampled at x + shift for every x, into `sum` with the bilinear
-// weights (1 - frac, frac); taps outside the row are skipped. Interior columns take
-// both taps without tests; the few columns near the borders test each tap.
-LIFF_HOT_LOOP void accumulateRow(const float* src, int U, Shift shift, float* sum) {
-  const float w0 = 1.f - shift.frac, w1 = shift.frac;
-  // Interior: 0 <= x + whole and x + whole + 1 <= U - 1.
-  const int begin = std::min(U, std::max(0, -shift.whole));
-  const int end = std::max(begin, std::min(U, U - 1 - shift.whole));
-  auto edge = [&](int x) {
-    const int x0 = x + shift.whole, x1 = x0 + 1;
-    if (x0 >= 0 && x0 < U) sum[x] += w0 * src[x0];
-    if (x1 >= 0 && x1 < U) sum[x] += w1 * src[x1];
+// Columns [begin, end) where both bilinear taps of every view fall inside its row:
+// 0 <= x + whole_s and x + whole_s + 1 <= U - 1 for every view s.
+struct Interior {
+  int begin, end;
+  Interior(const std::vector<Shift>& shifts, int U) : begin(0), end(U) {
+    for (const Shift& shift : shifts) {
+      begin = std::max(begin, -shift.whole);
+      end = std::min(end, U - 1 - shift.whole);
+    }
+    begin = std::min(begin, U);
+    end = std::max(begin, end);
+  }
+};
+
+// One row of H, the sum over a view row's S views of each view's row sampled at
+// x + shift_s with the bilinear weights (1 - frac_s, frac_s):
+//   out[x] = sum_s ((1 - f_s) src_s[x + whole_s] + f_s src_s[x + whole_s + 1]),
+// added in view order from 0, taps outside the row skipped (each added on its own).
+// Across `interior` no tap is skipped, and each vector of columns keeps its sum in a
+// register over the views: a view costs two loads and no store. Every column adds the
+// same terms in the same order whichever path it takes.
+LIFF_HOT_LOOP void sumShiftedRows(const float* const* src, const Shift* shift, int S, int U,
+                                  Interior interior, float* out) {
+  auto column = [&](int x) {
+    float sum = 0.f;
+    for (int s = 0; s < S; ++s) {
+      const float w0 = 1.f - shift[s].frac, w1 = shift[s].frac;
+      const int x0 = x + shift[s].whole, x1 = x0 + 1;
+      if (x0 >= 0 && x1 < U) {
+        sum += w0 * src[s][x0] + w1 * src[s][x1];
+      } else {
+        if (x0 >= 0 && x0 < U) sum += w0 * src[s][x0];
+        if (x1 >= 0 && x1 < U) sum += w1 * src[s][x1];
+      }
+    }
+    return sum;
   };
-  for (int x = 0; x < begin; ++x) edge(x);
-  const float* s0 = src + shift.whole;
-  for (int x = begin; x < end; ++x) sum[x] += w0 * s0[x] + w1 * s0[x + 1];
-  for (int x = end; x < U; ++x) edge(x);
+  int x = 0;
+  for (; x < interior.begin; ++x) out[x] = column(x);
+#ifdef LIFF_VEC8
+  // 4 vectors per step: the adds of one vector form a chain over the views.
+  constexpr int kVectors = 4, kStep = kVectors * kLanes;
+  for (; x + kStep <= interior.end; x += kStep) {
+    Vec8 acc[kVectors] = {};
+    for (int s = 0; s < S; ++s) {
+      const float w0 = 1.f - shift[s].frac, w1 = shift[s].frac;
+      const float* p = src[s] + x + shift[s].whole;
+      for (int v = 0; v < kVectors; ++v)
+        acc[v] += w0 * load(p + v * kLanes) + w1 * load(p + v * kLanes + 1);
+    }
+    for (int v = 0; v < kVectors; ++v) store(out + x + v * kLanes, acc[v]);
+  }
+  for (; x + kLanes <= interior.end; x += kLanes) {
+    Vec8 acc = {};
+    for (int s = 0; s < S; ++s) {
+      const float* p = src[s] + x + shift[s].whole;
+      acc += (1.f - shift[s].frac) * load(p) + shift[s].frac * load(p + 1);
+    }
+    store(out + x, acc);
+  }
+#endif
+  for (; x < U; ++x) out[x] = column(x);
 }
 
 // sum[x] += weight * row[x]: the vertical taps.
@@ -90,6 +136,7 @@ namespace {
 // The view shifts and (without alpha) the separable normalisation of one slope.
 struct SlopeShifts {
   std::vector<Shift> x, y;  // per view column s and row t
+  Interior interior{{}, 0};  // columns where no view's x taps leave it
   std::vector<float> wx, wy;  // inside weight per column and row (no alpha only)
 };
 
@@ -110,6 +157,7 @@ void shiftAndSumRows(const LightField& lf, const std::vector<cv::Mat>& views,
     for (int y = yBegin; y < yEnd; ++y) std::fill_n(outs[k]->ptr<float>(y - firstOutRow), U, 0.f);
   std::vector<int> first(K), last(K);  // per slope: its source rows [first, last)
   std::vector<size_t> block(K);          // and where its H rows start in `rows`
+  std::vector<const float*> src(S);      // one source row of each view of a view row
   for (int t = 0; t < T; ++t) {
     // Source rows [first_k, last_k) of view row t feed output rows [yBegin, yEnd) of
     // slope k; each source row is read once for the slopes whose range holds it.
@@ -126,14 +174,14 @@ void shiftAndSumRows(const LightField& lf, const std::vector<cv::Mat>& views,
       }
     }
     if (r0 >= r1) continue;
-    rows.assign(size, 0.f);
-    for (int r = r0; r < r1; ++r)
-      for (int s = 0; s < S; ++s) {
-        const float* src = views[size_t(t) * S + s].ptr<float>(r);
-        for (int k = 0; k < K; ++k)
-          if (r >= first[k] && r < last[k])
-            accumulateRow(src, U, shifts[k].x[s], rows.data() + block[k] + size_t(r - first[k]) * U);
-      }
+    rows.resize(size);
+    for (int r = r0; r < r1; ++r) {
+      for (int s = 0; s < S; ++s) src[s] = views[size_t(t) * S + s].ptr<float>(r);
+      for (int k = 0; k < K; ++k)
+        if (r >= first[k] && r < last[k])
+          sumShiftedRows(src.data(), shifts[k].x.data(), S, U, shifts[k].interior,
+                         rows.data() + block[k] + size_t(r - first[k]) * U);
+    }
     for (int k = 0; k < K; ++k) {
       const Shift& yShift = shifts[k].y[t];
       const float* h = rows.data() + block[k];
@@ -165,6 +213,7 @@ void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
   for (int k = 0; k < K; ++k) {
     for (int s = 0; s < S; ++s) shifts[k].x.emplace_back(-slopes[k] * (s - sc));
     for (int t = 0; t < T; ++t) shifts[k].y.emplace_back(-slopes[k] * (t - tc));
+    shifts[k].interior = Interior(shifts[k].x, U);
     if (!weighted) {
       shifts[k].wx = insideWeight(shifts[k].x, U);
       shifts[k].wy = insideWeight(shifts[k].y, V);

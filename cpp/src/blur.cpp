@@ -133,11 +133,16 @@ void gaussianBlurRows(const cv::Mat& src, cv::Mat& dst, const GaussianTaps& kx,
   shifted.resize(2 * rx + 1);
   float* middle[2] = {padded.data() + rx, padded.data() + stride + rx};
   // The horizontal pass of one vertically blurred row (middle[m]) into output row y.
+  // Reflected positions of the padding; -j reflects to j and width - 1 + j to
+  // width - 1 - j when the row is wider than the kernel's radius.
+  const bool wide = width > rx;
   auto horizontal = [&](int m, int y) {
     for (int j = 1; j <= rx; ++j) {
-      middle[m][-j] = middle[m][cv::borderInterpolate(-j, width, cv::BORDER_REFLECT_101)];
-      middle[m][width - 1 + j] =
-          middle[m][cv::borderInterpolate(width - 1 + j, width, cv::BORDER_REFLECT_101)];
+      middle[m][-j] =
+          middle[m][wide ? j : cv::borderInterpolate(-j, width, cv::BORDER_REFLECT_101)];
+      middle[m][width - 1 + j] = middle[m][wide ? width - 1 - j
+                                               : cv::borderInterpolate(width - 1 + j, width,
+                                                                       cv::BORDER_REFLECT_101)];
     }
     for (int j = -rx; j <= rx; ++j) shifted[j + rx] = middle[m] + j;
     float* out = dst.ptr<float>(y);
@@ -146,8 +151,10 @@ void gaussianBlurRows(const cv::Mat& src, cv::Mat& dst, const GaussianTaps& kx,
   };
   for (int y = rowBegin; y < rowEnd;) {
     const int count = std::min(2, rowEnd - y);
+    const bool inside = y - ry >= 0 && y + count - 1 + ry < height;  // no reflection
     for (int i = -ry; i <= ry + count - 1; ++i)
-      rows[i + ry] = src.ptr<float>(cv::borderInterpolate(y + i, height, cv::BORDER_REFLECT_101));
+      rows[i + ry] = src.ptr<float>(
+          inside ? y + i : cv::borderInterpolate(y + i, height, cv::BORDER_REFLECT_101));
     if (count == 2)
       symmetricTapsTwoRows(rows.data(), ky.taps.data(), ry, width, middle[0], middle[1]);
     else

@@ -73,6 +73,32 @@ LIFF_HOT_LOOP void sumShiftedRows(const float* const* src, const Shift* shift, i
     return sum;
   };
   int x = 0;
+#ifdef LIFF_VEC8
+  // A vector of columns [x, x + 8) near the borders: views whose taps all fall inside
+  // take the vector form, the others each column's own (the same terms as column()).
+  auto edgeVector = [&](int x) {
+    Vec8 acc = {};
+    for (int s = 0; s < S; ++s) {
+      const float w0 = 1.f - shift[s].frac, w1 = shift[s].frac;
+      const int x0 = x + shift[s].whole;
+      if (x0 >= 0 && x0 + kLanes < U) {
+        acc += w0 * load(src[s] + x0) + w1 * load(src[s] + x0 + 1);
+        continue;
+      }
+      for (int i = 0; i < kLanes; ++i) {
+        const int c0 = x0 + i, c1 = c0 + 1;
+        if (c0 >= 0 && c1 < U) {
+          acc[i] += w0 * src[s][c0] + w1 * src[s][c1];
+        } else {
+          if (c0 >= 0 && c0 < U) acc[i] += w0 * src[s][c0];
+          if (c1 >= 0 && c1 < U) acc[i] += w1 * src[s][c1];
+        }
+      }
+    }
+    store(out + x, acc);
+  };
+  for (; x < interior.begin && x + kLanes <= U; x += kLanes) edgeVector(x);
+#endif
   for (; x < interior.begin; ++x) out[x] = column(x);
 #ifdef LIFF_VEC8
   // 4 vectors per step: the adds of one vector form a chain over the views.
@@ -95,6 +121,7 @@ LIFF_HOT_LOOP void sumShiftedRows(const float* const* src, const Shift* shift, i
     }
     store(out + x, acc);
   }
+  for (; x + kLanes <= U; x += kLanes) edgeVector(x);
 #endif
   for (; x < U; ++x) out[x] = column(x);
 }

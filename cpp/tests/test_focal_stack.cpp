@@ -200,6 +200,19 @@ TEST(FocalStack, SliceEqualsTheShiftAndSumFormulaAtEveryPixel) {
   }
 }
 
+// Views wide enough for the vector paths (32 and 8 columns at a time, and the 8-column
+// vectors at the borders where some views' taps leave the row and others' do not).
+TEST(FocalStack, WideSliceEqualsTheShiftAndSumFormulaAtEveryPixel) {
+  const std::vector<double> slopes{-4.3, -1.25, 0.0, 0.35, 2.0, 6.5};
+  for (int U : {8, 40, 107}) {
+    const LightField lf = dyadicLightField(3, 7, 6, U, 13);
+    const std::vector<cv::Mat> slices = render(lf, slopes);
+    for (size_t k = 0; k < slopes.size(); ++k)
+      EXPECT_LT(maxDifference(slices[k], referenceSlice(lf, slopes[k])), 1e-6)
+          << U << " columns, slope " << slopes[k];
+  }
+}
+
 TEST(FocalStack, SliceIsTheSameWhateverSlopesItIsRenderedWith) {
   const LightField lf = dyadicLightField(3, 4, 37, 29, 5);
   const std::vector<double> slopes{-0.8, 0.15, 0.6};

@@ -1,22 +1,68 @@
 #include "detections.hpp"
 
+#include "profile.hpp"
+
 #include <algorithm>
+#include <cstring>
 #include <functional>
 #include <numeric>
 #include <tuple>
 
 namespace liff {
 namespace detail {
+namespace {
+
+// Descriptor rows one parallel task copies into the output.
+constexpr int kRowsPerCopyTask = 256;
+
+}  // namespace
+
+void Detections::append(const std::vector<cv::KeyPoint>& found, const cv::Mat& descriptors) {
+  if (!descriptors.empty()) {
+    CV_Assert(descriptors.rows == int(found.size()));
+    int next = 0;
+    for (const cv::Mat& block : descriptorBlocks) next += block.rows;
+    for (int j = 0; j < descriptors.rows; ++j) descriptorRows.push_back(next + j);
+    descriptorBlocks.push_back(descriptors);
+  }
+  keypoints.insert(keypoints.end(), found.begin(), found.end());
+}
 
 void Detections::select(const std::vector<int>& rows) {
   std::vector<cv::KeyPoint> kept;
   kept.reserve(rows.size());
   for (int i : rows) kept.push_back(keypoints[i]);
   keypoints.swap(kept);
-  if (descriptors.empty()) return;
-  cv::Mat out(int(rows.size()), descriptors.cols, descriptors.type());
-  for (size_t j = 0; j < rows.size(); ++j) descriptors.row(rows[j]).copyTo(out.row(int(j)));
-  descriptors = out;
+  if (descriptorRows.empty()) return;
+  std::vector<int> keptRows;
+  keptRows.reserve(rows.size());
+  for (int i : rows) keptRows.push_back(descriptorRows[i]);
+  descriptorRows.swap(keptRows);
+}
+
+void Detections::copyDescriptorsTo(cv::OutputArray out, int descriptorSize, int type) const {
+  if (keypoints.empty()) {
+    out.release();
+    return;
+  }
+  CV_Assert(descriptorRows.size() == keypoints.size());
+  out.create(int(keypoints.size()), descriptorSize, type);
+  cv::Mat dst = out.getMat();
+  // Where each block starts among all rows; a row is found by a binary search.
+  std::vector<int> starts{0};
+  for (const cv::Mat& block : descriptorBlocks) starts.push_back(starts.back() + block.rows);
+  const size_t rowBytes = dst.elemSize() * size_t(descriptorSize);
+  const int tasks = (int(descriptorRows.size()) + kRowsPerCopyTask - 1) / kRowsPerCopyTask;
+  parallelFor("descriptor copy", cv::Range(0, tasks), [&](const cv::Range& range) {
+    const int end = std::min(int(descriptorRows.size()), range.end * kRowsPerCopyTask);
+    for (int i = range.start * kRowsPerCopyTask; i < end; ++i) {
+      const int row = descriptorRows[i];
+      const size_t b = size_t(std::upper_bound(starts.begin(), starts.end(), row) - starts.begin()) - 1;
+      const cv::Mat& block = descriptorBlocks[b];
+      CV_DbgAssert(block.type() == type && block.cols == descriptorSize);
+      std::memcpy(dst.ptr(i), block.ptr(row - starts[b]), rowBytes);
+    }
+  });
 }
 
 void sortAndDeduplicate(Detections& detections) {

@@ -292,8 +292,10 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   Detections detections = detail::detectInSlices(call, mask, wantDescriptors);
   detail::sortAndDeduplicate(detections);
   detail::retainBest(detections, parameters.nfeatures);
+  if (wantDescriptors)
+    detections.copyDescriptorsTo(descriptorsOut, detail::kDescriptorSize,
+                                 parameters.descriptorType);
   keypoints.swap(detections.keypoints);
-  if (wantDescriptors) detections.descriptors.copyTo(descriptorsOut);
 }
 
 }  // namespace

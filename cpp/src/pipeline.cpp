@@ -133,13 +133,8 @@ Detections detectInSlices(const Call& call, const cv::Mat& mask, bool wantDescri
   for (int k = 0; k < call.plan.size(); ++k)
     if (call.plan.searched[k]) searched.push_back(k);
   Detections all;
-  if (wantDescriptors) all.descriptors.create(0, kDescriptorSize, call.parameters.descriptorType);
   if (call.settings.octaves < 1) return all;
   SliceWindow window(call.lf, call.plan, call.settings, call.batch, call.renderAhead);
-  // Each batch's descriptors, joined once at the end: growing one Mat batch by batch
-  // would leave every outgrown buffer behind (kept as working memory, of sizes nothing
-  // else in the call asks for).
-  std::vector<cv::Mat> blocks;
   for (size_t first = 0; first < searched.size(); first += call.batch) {
     const std::vector<int> batch(searched.begin() + first,
                                  searched.begin() + std::min(searched.size(), first + call.batch));
@@ -155,19 +150,18 @@ Detections detectInSlices(const Call& call, const cv::Mat& mask, bool wantDescri
     std::vector<cv::KeyPoint> keypoints;
     for (const std::vector<cv::KeyPoint>& found : searchSlices(call, window, targets, mask))
       keypoints.insert(keypoints.end(), found.begin(), found.end());
-    all.keypoints.insert(all.keypoints.end(), keypoints.begin(), keypoints.end());
+    cv::Mat block;  // each batch's descriptors, copied once into the output at the end
     if (wantDescriptors && !keypoints.empty()) {
       // Each keypoint's nearest slice is within one of its detection slice: held.
-      cv::Mat block(int(keypoints.size()), kDescriptorSize, call.parameters.descriptorType);
+      block.create(int(keypoints.size()), kDescriptorSize, call.parameters.descriptorType);
       describe(keypoints, nearestSlices(call.plan, keypoints), window, call.parameters.rootSift,
                block);
-      blocks.push_back(block);
     }
+    all.append(keypoints, block);
     // Keep only what the next batch needs from here on (its lower neighbour); the
     // others' memory goes to the next slices.
     if (first + call.batch < searched.size()) window.releaseBelow(searched[first + call.batch] - 1);
   }
-  if (!blocks.empty()) cv::vconcat(blocks, all.descriptors);
   return all;
 }
 

@@ -21,6 +21,10 @@ namespace {
 // Largest light field dimension we accept: keeps T*S*V*U and pyramid sizes in int range.
 constexpr int kMaxSide = 1 << 20;
 
+// Rows of a colour or integer view converted to float colour at a time: a band stays
+// in cache for its grey conversion (a whole 512 x 512 colour view in float is 3 MB).
+constexpr int kConversionRows = 16;
+
 std::string depthName(int depth) {
   switch (depth) {
     case CV_8U: return "uint8";
@@ -205,15 +209,25 @@ void convertLightField(const cv::Mat& input, LightField& lf) {
           src.convertTo(dst, CV_32F, scale);
           continue;
         }
-        // Float input is read where it is; other depths are converted view by view.
-        if (depth != CV_32F) src.convertTo(converted, CV_32F, scale);
-        const cv::Mat& colour = depth == CV_32F ? src : converted;
-        // Luminance of BGR (ITU-R BT.601, as cv::COLOR_BGR2GRAY), computed in float;
-        // the alpha channel (last) is the sample's weight.
-        if (channels == 2) cv::extractChannel(colour, dst, 0);
-        if (channels == 3) cv::cvtColor(colour, dst, cv::COLOR_BGR2GRAY);
-        if (channels == 4) cv::cvtColor(colour, dst, cv::COLOR_BGRA2GRAY);
-        if (hasAlpha) cv::extractChannel(colour, lf.weights[v], channels - 1);
+        // Float input is read where it is; other depths are converted to float colour
+        // a band of rows at a time, which stays in cache for the grey conversion (each
+        // row is converted alone either way, so the values do not depend on the band).
+        const int band = depth == CV_32F ? lf.V : kConversionRows;
+        for (int r0 = 0; r0 < lf.V; r0 += band) {
+          const cv::Range rows(r0, std::min(lf.V, r0 + band));
+          if (depth != CV_32F) src.rowRange(rows).convertTo(converted, CV_32F, scale);
+          const cv::Mat colour = depth == CV_32F ? src : converted;
+          cv::Mat grey = dst.rowRange(rows);
+          // Luminance of BGR (ITU-R BT.601, as cv::COLOR_BGR2GRAY), computed in float;
+          // the alpha channel (last) is the sample's weight.
+          if (channels == 2) cv::extractChannel(colour, grey, 0);
+          if (channels == 3) cv::cvtColor(colour, grey, cv::COLOR_BGR2GRAY);
+          if (channels == 4) cv::cvtColor(colour, grey, cv::COLOR_BGRA2GRAY);
+          if (hasAlpha) {
+            cv::Mat weight = lf.weights[v].rowRange(rows);
+            cv::extractChannel(colour, weight, channels - 1);
+          }
+        }
       }
     });
   }

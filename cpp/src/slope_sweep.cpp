@@ -1,4 +1,5 @@
 #include "slope_sweep.hpp"
+#include "hot_loop.hpp"
 #include "profile.hpp"
 
 #include <algorithm>
@@ -93,6 +94,34 @@ Sampling sampling(const Compared& c, double m) {
   return {i, float(p - i)};
 }
 
+// out[x] += |view[x] - ref[x]|: a compared view's residual where it samples whole pixels.
+LIFF_HOT_LOOP void addResidualRow(const float* view, const float* ref, int width, float* out) {
+  for (int x = 0; x < width; ++x) out[x] += std::abs(view[x] - ref[x]);
+}
+
+// out[x] += |w0 (view - ref)[x] + w1 (viewFar - refFar)[x]|: its residual between the
+// near and the far samples.
+LIFF_HOT_LOOP void addInterpolatedResidualRow(const float* view, const float* ref,
+                                              const float* viewFar, const float* refFar,
+                                              float w0, float w1, int width, float* out) {
+  for (int x = 0; x < width; ++x)
+    out[x] += std::abs(w0 * (view[x] - ref[x]) + w1 * (viewFar[x] - refFar[x]));
+}
+
+// Folds one row of slope k's window costs c into the votes' row, columns [begin, end).
+// Branch-free, so that it vectorises; a NaN (an invalid sample in the window) counts
+// for nothing.
+LIFF_HOT_LOOP void foldRow(const float* c, int k, int begin, int end, float* best, int* index,
+                           float* sum, int* count) {
+  for (int x = begin; x < end; ++x) {
+    const bool valid = c[x] == c[x], better = c[x] < best[x];
+    sum[x] += valid ? c[x] : 0.f;
+    count[x] += valid ? 1 : 0;
+    best[x] = better ? c[x] : best[x];
+    index[x] = better ? k : index[x];
+  }
+}
+
 // One slope of the sweep: cost(x, y) = sum over the compared views of
 // |L_view(x - m d) - L_ref(x - f)| (d the view's offset from the reference along its
 // axis, f the fractional part of m d): the reference is interpolated as the view is, so
@@ -130,14 +159,13 @@ bool slopeCost(const cv::Mat& reference, const std::vector<Compared>& views, dou
       const float* view = c.values.ptr<float>(c.alongX ? row : row - at.i) + roi.x - (c.alongX ? at.i : 0);
       const float* ref = reference.ptr<float>(row) + roi.x;
       if (at.f == 0) {
-        for (int x = 0; x < roi.width; ++x) out[x] += std::abs(view[x] - ref[x]);
+        addResidualRow(view, ref, roi.width, out);
         continue;
       }
       // The far samples: the previous pixel of the row, or the previous row.
       const float* viewFar = c.alongX ? view - 1 : c.values.ptr<float>(row - at.i - 1) + roi.x;
       const float* refFar = c.alongX ? ref - 1 : reference.ptr<float>(row - 1) + roi.x;
-      for (int x = 0; x < roi.width; ++x)
-        out[x] += std::abs(w0 * (view[x] - ref[x]) + w1 * (viewFar[x] - refFar[x]));
+      addInterpolatedResidualRow(view, ref, viewFar, refFar, w0, w1, roi.width, out);
     }
   }
   // (Its sums run left to right and top to bottom: a pixel's value depends on the
@@ -161,15 +189,7 @@ void foldVotes(const cv::Mat& boxed, const cv::Rect& roi, int k, Votes& votes, i
     int* index = votes.index.ptr<int>(y + y0) + x0;
     float* sum = votes.sum.ptr<float>(y + y0) + x0;
     int* count = votes.count.ptr<int>(y + y0) + x0;
-    // Branch-free, so that it vectorises; a NaN (an invalid sample in the window)
-    // counts for nothing.
-    for (int x = kWindowRadius; x < roi.width - kWindowRadius; ++x) {
-      const bool valid = c[x] == c[x], better = c[x] < best[x];
-      sum[x] += valid ? c[x] : 0.f;
-      count[x] += valid ? 1 : 0;
-      best[x] = better ? c[x] : best[x];
-      index[x] = better ? k : index[x];
-    }
+    foldRow(c, k, kWindowRadius, roi.width - kWindowRadius, best, index, sum, count);
   }
 }
 

@@ -161,7 +161,7 @@ def test_a_task_takes_its_workers_threads_and_memory(tmp_path, monkeypatch):
     large = write_light_fields(tmp_path, 1, (3, 3, 512, 512), "large")  # needs about 150 MB
     held = liff.cli.common.held_bytes()  # as the task counts it: kept working memory is reused
     limit = int((held + 90 * 2**20) / batch.MEMORY_SHARE)  # about 90 MB for each task
-    threads, budget = liff.getNumThreads(), liff.cli.common.memory_budget_bytes
+    threads, budget = liff.getNumThreads(), liff._budget.memory_budget_bytes
     # The worker shares this test process, already near the limit: Dask must not pause it.
     no_pausing = {f"distributed.worker.memory.{k}": False for k in ("target", "spill", "pause",
                                                                      "terminate")}
@@ -187,7 +187,7 @@ def test_a_task_takes_its_workers_threads_and_memory(tmp_path, monkeypatch):
             assert threads_seen == 3 and 1 <= before <= 90  # threads; MB left of the limit
             assert before - after >= 20  # the input read counts against the task's memory
     finally:
-        assert (liff.getNumThreads(), liff.cli.common.memory_budget_bytes) == (threads, budget)
+        assert (liff.getNumThreads(), liff._budget.memory_budget_bytes) == (threads, budget)
     assert [o.status for o in outcomes] == ["done", "failed"]
     assert outcomes[1].error.startswith("MemoryError") and "MB" in outcomes[1].error
 

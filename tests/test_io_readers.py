@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from liff import io
+from lfhelpers import zero_png
 
 COTTON = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "hci" / "cotton"
 
@@ -163,7 +164,9 @@ def test_views_folder_errors(tmp_path):
 
 
 @pytest.mark.parametrize("odd_view, expected", [
-    (np.zeros((5, 6, 3), np.uint8), r"6x5, 3 channel\(s\), uint8; expected 6x4, 3 channel\(s\)"),
+    # a larger view is refused from its header, before it is decoded
+    (np.zeros((5, 6, 3), np.uint8), r"6x5 \(its header\); expected 6x4, 3 channel\(s\), uint8"),
+    (np.zeros((3, 6, 3), np.uint8), r"6x3, 3 channel\(s\), uint8; expected 6x4, 3 channel\(s\)"),
     (np.zeros((4, 6), np.uint8), r"1 channel\(s\).*expected 6x4, 3 channel\(s\)"),
     (np.zeros((4, 6, 4), np.uint8), r"4 channel\(s\).*expected 6x4, 3 channel\(s\)"),
     (np.zeros((4, 6, 3), np.uint16), r"uint16; expected 6x4, 3 channel\(s\), uint8"),
@@ -597,17 +600,6 @@ def test_a_fifo_among_the_views_is_refused_without_opening_it(tmp_path, kind):
 
 
 # --- OpenCV's decoding errors as liff's: ValueError, MemoryError, naming the file --------
-
-def zero_png(path, width, height):
-    """A valid grey PNG of width x height black pixels (rows compress to almost nothing)."""
-    def chunk(kind, data):
-        return (struct.pack(">I", len(data)) + kind + data +
-                struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
-    packer, row = zlib.compressobj(9), b"\0" * (width + 1)
-    idat = b"".join(packer.compress(row) for _ in range(height)) + packer.flush()
-    Path(path).write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
-                          + chunk(b"IDAT", idat) + chunk(b"IEND", b""))
-
 
 def huge_header_png(path):
     """A PNG whose header claims 100000 x 100000 pixels, more than OpenCV decodes."""

@@ -32,6 +32,7 @@ from contextlib import ExitStack, contextmanager
 from dataclasses import asdict, dataclass, fields
 from typing import TYPE_CHECKING, List, NamedTuple, Optional, Sequence
 
+from . import _budget
 from ._paths import special_kind
 from .outputs import atomic_output
 
@@ -113,12 +114,10 @@ def run_task(task: Task) -> Outcome:
 def _memory_hint(error: Exception) -> str:
     """For a MemoryError on a Dask worker: where the limit came from (not only
     setMemoryLimitMB, which the user does not call here)."""
-    from .cli import common
-
-    if not isinstance(error, MemoryError) or common.memory_budget_bytes is None:
+    if not isinstance(error, MemoryError) or _budget.memory_budget_bytes is None:
         return ""
     return (f" (on this Dask worker: {MEMORY_SHARE:.0%} of its memory limit, "
-            f"{common.memory_budget_bytes / MEMORY_SHARE / 1e6:.0f} MB, less what the worker "
+            f"{_budget.memory_budget_bytes / MEMORY_SHARE / 1e6:.0f} MB, less what the worker "
             "process holds with the light field read; or give workers more memory: dask worker "
             "--memory-limit)")
 
@@ -136,19 +135,18 @@ def _worker_resources():
         yield ""
         return
     from . import getNumThreads, setNumThreads
-    from .cli import common
 
-    threads, budget = getNumThreads(), common.memory_budget_bytes
+    threads, budget = getNumThreads(), _budget.memory_budget_bytes
     setNumThreads(worker.state.nthreads)
     limit = worker.memory_manager.memory_limit
     if limit:
         # The detector's limit is what this leaves once the input is read (make_detector).
-        common.memory_budget_bytes = int(MEMORY_SHARE * limit)
+        _budget.memory_budget_bytes = int(MEMORY_SHARE * limit)
     try:
         yield worker.address
     finally:
         setNumThreads(threads)
-        common.memory_budget_bytes = budget
+        _budget.memory_budget_bytes = budget
 
 
 def connect(client) -> "distributed.Client":

@@ -655,14 +655,14 @@ except MemoryError as e:
 """
 
 
-@pytest.mark.parametrize("kind", ["image", "hci"])
+@pytest.mark.parametrize("kind", ["image", "hci", "views"])
 def test_running_out_of_memory_while_decoding_is_a_memory_error(tmp_path, kind):
     # a 140 KB PNG decodes to 144 MB; with 48 MB left OpenCV raised cv2.error (-4)
     if kind == "image":
         target = path = tmp_path / "big.png"
         zero_png(path, 12000, 12000)
     else:
-        target, path = folder_with(tmp_path, "hci", lambda p: zero_png(p, 12000, 12000))
+        target, path = folder_with(tmp_path, kind, lambda p: zero_png(p, 12000, 12000))
     env = dict(os.environ)
     if "LD_PRELOAD" in env:  # the sanitized run: ASan reserves terabytes of address space;
         del env["LD_PRELOAD"]  # the readers are Python over cv2, the installed liff will do
@@ -671,3 +671,24 @@ def test_running_out_of_memory_while_decoding_is_a_memory_error(tmp_path, kind):
                           capture_output=True, text=True, timeout=120, env=env)
     assert proc.returncode == 0, proc.stderr
     assert f"MemoryError: {path}: not enough memory" in proc.stdout, proc.stdout + proc.stderr
+
+
+def test_only_decode_image_calls_opencvs_decoders():
+    """Every image liff reads goes through liff.io.images.decode_image, which maps
+    cv2.error to ValueError / MemoryError naming the file: no other module calls
+    OpenCV's decoders (where a cv2.error would reach the caller)."""
+    import ast
+
+    decoders = {"imread", "imdecode", "imreadmulti", "imreadanimation", "imcount",
+                "imdecodemulti", "imreadWithMetadata"}
+    package = Path(io.__file__).resolve().parents[1]
+    calls = []  # (file, enclosing function or None) of each use of a decoder
+    for source in sorted(package.rglob("*.py")):
+        tree = ast.parse(source.read_text(), str(source))
+        inside = {}  # id(node) -> the function it is in
+        for function in (node for node in ast.walk(tree) if isinstance(node, ast.FunctionDef)):
+            inside.update((id(node), function.name) for node in ast.walk(function))
+        calls += [(source.relative_to(package).as_posix(), inside.get(id(node)))
+                  for node in ast.walk(tree)
+                  if isinstance(node, ast.Attribute) and node.attr in decoders]
+    assert calls == [("io/images.py", "decode_image")], calls

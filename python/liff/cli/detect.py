@@ -14,7 +14,7 @@ import cv2
 from .. import __version__, batch
 from .._detector import as_read_in_place
 from .._warnings import LiffWarning
-from ..feature_file import Features, centre_view, read_meta, save_features
+from ..feature_file import Features, centre_view, content_problem, read_meta, save_features
 from ..io.images import write_image
 from ..outputs import atomic_output, refuse_inputs
 from ..plot import draw_keypoints_by_slope
@@ -156,6 +156,9 @@ def changes(out: str, plot: Optional[str], wanted: dict) -> Optional[List[str]]:
         changed = common.modified_after(wanted["source"], out)
     if not differ and changed:
         differ = ["the input changed after the output was made"]
+    if not differ:  # the settings match: keep it only if its content is what was written
+        problem = content_problem(out)
+        differ = [problem] if problem else []
     if not differ and plot and not os.path.exists(plot):
         return []
     return differ or None

@@ -466,10 +466,12 @@ def error_line(command: str, name: str, error: str) -> str:
 
 
 def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: str,
-              label: Callable[[tuple], str]) -> Tuple[List, int]:
+              label: Callable[[tuple], str],
+              done: Optional[Callable[[object], None]] = None) -> Tuple[List, int]:
     """Runs ``function(*job)`` for every job, on ``workers`` processes (1 = here), with a
     progress bar on stderr (see :func:`progress`). A job that raises is reported as
-    ``liff <command>: <label>: <error>`` and the rest go on.
+    ``liff <command>: <label>: <error>`` and the rest go on; ``done(result)`` is called
+    with each job's result as it comes (e.g. to write a manifest as the run goes).
 
     Returns (results in job order, None for failures; number of failures).
     """
@@ -487,6 +489,8 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
         for i, job in enumerate(jobs):
             try:
                 results[i] = function(*job)
+                if done:
+                    done(results[i])
             except (ValueError, OSError, MemoryError) as error:
                 report(i, error)
             if progress:
@@ -503,6 +507,8 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
                 i = futures[future]
                 try:
                     results[i] = future.result()
+                    if done:
+                        done(results[i])
                 except (ValueError, OSError, MemoryError) as error:
                     report(i, error)
                 if progress:

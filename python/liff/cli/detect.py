@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 import warnings
 from contextlib import contextmanager
 from typing import Callable, List, NamedTuple, Optional, Tuple
@@ -49,8 +48,9 @@ def add_parser(sub) -> None:
                         "docs/BATCH.md")
     p.add_argument("--manifest", default=None, metavar="CSV",
                    help="write the run's manifest (input, output, status, features, slope "
-                        "range, seconds, CPU seconds, error, worker) here (default for several inputs: "
-                        "OUT/manifest-<UTC time>.csv)")
+                        "range, seconds, CPU seconds, error, worker) here, as the run goes "
+                        "(default for several inputs: OUT/manifest-<UTC time>.csv, or "
+                        "...-2.csv when a run of the same second has taken it)")
     mask.add_mask_option(p)
     p.add_argument("--overwrite", action="store_true",
                    help="redo outputs that exist even if made with the same settings, and "

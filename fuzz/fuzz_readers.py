@@ -7,7 +7,9 @@
 e.g. ``python fuzz/fuzz_readers.py pfm -max_total_time=30 build/fuzz/pfm fuzz/corpus/pfm``
 (new inputs go to the first folder). Each input is written to a temporary file or
 folder (see fuzz/readers.py) and read; a clean result or a ValueError naming the
-path passes, anything else (another exception, a ValueError that does not name the
+path passes, as does a MemoryError naming it (a file claiming more than the memory
+budget, which is set to half of the address space the target may still take);
+anything else (another exception, an error that does not name the
 path, a malformed result, a crash, running out of memory or time) is a finding, and
 libFuzzer writes the input to crash-*/oom-*/timeout-* files.
 
@@ -31,6 +33,7 @@ import numpy  # noqa: F401
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
+import liff._budget  # noqa: E402
 import liff.io  # noqa: E402,F401
 import readers  # noqa: E402
 
@@ -66,6 +69,10 @@ def limit_memory(extra_mb: int = 1024) -> None:
         vm = next(int(line.split()[1]) for line in f if line.startswith("VmSize:"))
     cap = (vm + extra_mb * 1024) * 1024
     resource.setrlimit(resource.RLIMIT_AS, (cap, resource.getrlimit(resource.RLIMIT_AS)[1]))
+    # Readers check what a header claims against the budget before allocating: half of
+    # what the cap leaves, so that a checked claim is a clean MemoryError and only an
+    # unchecked allocation runs into the cap.
+    liff._budget.memory_budget_bytes = liff._budget.held_bytes() + extra_mb * 2**20 // 2
 
 
 def main() -> None:

@@ -4,8 +4,9 @@ replay (tests/test_fuzz_corpus.py) and the reader property tests.
 Adding a reader is one line in READERS: a name (also its corpus folder,
 fuzz/corpus/<name>/), the function, and how the fuzz bytes become its input:
 ``file(".ext")`` writes them to one file, ``FOLDER`` unpacks them into a folder
-(see unpack_folder). The contract every reader is held to: a clean result or a
-ValueError that names the path it was given; anything else is a finding.
+(see unpack_folder). The contract every reader is held to: a clean result, or a
+ValueError (or, for a file claiming more than the memory budget, a MemoryError) that
+names the path it was given; anything else is a finding.
 """
 
 from __future__ import annotations
@@ -151,18 +152,19 @@ def check_result(reader: Reader, result) -> None:
 
 
 def run_reader(reader: Reader, data: bytes, workdir: Optional[str] = None):
-    """Feeds ``data`` to ``reader``. Returns the result, or the ValueError it raised
-    (whose message must name the path). Raises Finding, or lets any other exception
-    through, when the contract is broken."""
+    """Feeds ``data`` to ``reader``. Returns the result, or the ValueError or
+    MemoryError it raised (whose message must name the path: a file claiming more than
+    the memory budget is refused with a MemoryError naming it). Raises Finding, or
+    lets any other exception through, when the contract is broken."""
     own = workdir is None
     workdir = tempfile.mkdtemp(prefix="liff-fuzz-") if own else workdir
     try:
         path = materialise(reader, data, workdir)
         try:
             result = reader.read(path)
-        except ValueError as e:
+        except (ValueError, MemoryError) as e:
             if path not in str(e):
-                raise Finding(f"{reader.name}: ValueError does not name the input "
+                raise Finding(f"{reader.name}: {type(e).__name__} does not name the input "
                               f"{path!r}: {e}") from e
             return e
         check_result(reader, result)

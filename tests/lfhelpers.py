@@ -7,8 +7,11 @@ these live in conftest.py.
 from __future__ import annotations
 
 import os
+import struct
 import threading
 import time
+import zlib
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -215,3 +218,14 @@ class Fifo:
     def __exit__(self, *exc):
         self._stop.set()
         self._thread.join()
+
+
+def zero_png(path, width, height):
+    """A valid grey PNG of width x height black pixels (rows compress to almost nothing)."""
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data +
+                struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    packer, row = zlib.compressobj(9), b"\0" * (width + 1)
+    idat = b"".join(packer.compress(row) for _ in range(height)) + packer.flush()
+    Path(path).write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
+                          + chunk(b"IDAT", idat) + chunk(b"IEND", b""))

@@ -161,7 +161,7 @@ def test_a_task_takes_its_workers_threads_and_memory(tmp_path, monkeypatch):
     large = write_light_fields(tmp_path, 1, (3, 3, 512, 512), "large")  # needs about 150 MB
     held = liff.cli.common.held_bytes()  # as the task counts it: kept working memory is reused
     limit = int((held + 90 * 2**20) / batch.MEMORY_SHARE)  # about 90 MB for each task
-    threads, budget = liff.getNumThreads(), liff.cli.common.memory_budget_bytes
+    threads, budget = liff.getNumThreads(), liff._budget.memory_budget_bytes
     # The worker shares this test process, already near the limit: Dask must not pause it.
     no_pausing = {f"distributed.worker.memory.{k}": False for k in ("target", "spill", "pause",
                                                                      "terminate")}
@@ -187,7 +187,7 @@ def test_a_task_takes_its_workers_threads_and_memory(tmp_path, monkeypatch):
             assert threads_seen == 3 and 1 <= before <= 90  # threads; MB left of the limit
             assert before - after >= 20  # the input read counts against the task's memory
     finally:
-        assert (liff.getNumThreads(), liff.cli.common.memory_budget_bytes) == (threads, budget)
+        assert (liff.getNumThreads(), liff._budget.memory_budget_bytes) == (threads, budget)
     assert [o.status for o in outcomes] == ["done", "failed"]
     assert outcomes[1].error.startswith("MemoryError") and "MB" in outcomes[1].error
 
@@ -427,3 +427,60 @@ def test_a_worker_killed_mid_run_loses_nothing(tmp_path):
         for process in workers + [scheduler]:
             process.kill()
             process.wait()
+
+
+# --- manifests that never collide and survive an interrupted run (issue 32) ----------------
+
+def test_two_batches_started_in_the_same_second_get_manifests_of_their_own(tmp_path):
+    """Both had written manifest-YYYYmmdd-HHMMSS.csv, one over the other."""
+    now = time.time()
+    names = [batch.new_manifest_name(str(tmp_path / "out"), now) for _ in range(3)]
+    stamp = time.strftime("manifest-%Y%m%d-%H%M%S", time.gmtime(now))
+    assert [os.path.basename(n) for n in names] == [f"{stamp}.csv", f"{stamp}-2.csv",
+                                                    f"{stamp}-3.csv"]
+    assert all(os.path.isfile(n) for n in names)  # each taken as soon as it is named
+
+
+def test_a_batch_writes_its_own_manifest_beside_one_of_the_same_second(tmp_path, capsys,
+                                                                      monkeypatch):
+    paths = write_light_fields(tmp_path / "in", 2)
+    out = tmp_path / "out"
+    now = time.time()
+    taken = batch.new_manifest_name(str(out), now)  # another batch's, in the same second
+    real = batch.new_manifest_name
+    monkeypatch.setattr(batch, "new_manifest_name", lambda folder: real(folder, now))
+    assert main(["detect", *paths, "--out", str(out)]) == 0
+    manifest = capsys.readouterr().out.split("manifest: ")[1].strip()
+    assert manifest == taken.replace(".csv", "-2.csv")
+    assert [r["input"] for r in read_manifest(manifest)] == paths
+    assert os.path.getsize(taken) == 0  # the other batch's, untouched
+
+
+@pytest.mark.parametrize("stop", ["Ctrl-C", "SIGKILL"])
+def test_a_run_stopped_early_leaves_a_manifest_of_what_it_finished(tmp_path, monkeypatch, stop):
+    """SIGINT, SIGKILL or a full disk had left no manifest at all. Ctrl-C: the manifest
+    is written on the way out; SIGKILL: what is on disk when the third task starts is
+    what a kill then would leave (written as the run goes, each write atomic)."""
+    paths = write_light_fields(tmp_path / "in", 4)
+    manifest = tmp_path / "m.csv"
+    monkeypatch.setattr(batch, "MANIFEST_SECONDS", 0.0)
+    seen_on_disk = []
+    real = batch.run_task
+
+    def task(task):
+        if task.source == paths[2]:
+            seen_on_disk.append(read_manifest(manifest))
+            if stop == "Ctrl-C":
+                raise KeyboardInterrupt
+        return real(task)
+
+    monkeypatch.setattr(batch, "run_task", task)
+    code = main(["detect", *paths, "--out", str(tmp_path / "out"), "--manifest", str(manifest)])
+    rows = read_manifest(manifest)
+    finished = [{"input": r["input"], "status": r["status"]} for r in seen_on_disk[0]]
+    assert finished == [{"input": p, "status": "done"} for p in paths[:2]]
+    if stop == "Ctrl-C":
+        assert code == 130 and [r["input"] for r in rows] == paths[:2]
+    else:
+        assert code == 0 and [r["input"] for r in rows] == paths
+    assert not [n for n in os.listdir(tmp_path) if ".partial" in n]

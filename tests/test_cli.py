@@ -168,6 +168,44 @@ def test_sfm_reconstructs_a_capture(capture_folder, tmp_path, capsys):
     assert "fresh database" in capsys.readouterr().err
 
 
+def _light_fields(source, folder, sizes):
+    """One .npy a size (V, U) in ``folder``, cut from the light field ``source``; their
+    paths."""
+    folder.mkdir(exist_ok=True)
+    paths = []
+    for i, size in enumerate(sizes):
+        with np.load(source) as data:
+            lf = data["light_field"][:, :, :size[0], :size[1]]
+        paths.append(str(folder / f"pose{i}.npy"))
+        np.save(paths[-1], lf)
+    return paths
+
+
+def test_colmap_with_a_failed_input_writes_nothing_and_says_so(disk_npz, tmp_path, capsys):
+    """Issue 32: one input with NaNs gave exit 1 and a database holding the other."""
+    paths = _light_fields(disk_npz, tmp_path / "in", [(64, 64), (64, 64)])
+    bad = np.load(paths[1]).astype(np.float32)
+    bad[0, 0, 0, 0] = np.nan
+    np.save(paths[1], bad)
+    database, images = tmp_path / "ws" / "database.db", tmp_path / "ws" / "images"
+    assert main(["colmap", *paths, "--database", str(database), "--image-dir", str(images)]) == 1
+    err = capsys.readouterr().err
+    assert "pose1.npy" in err and "1 of 2 input(s) failed" in err and "no database written" in err
+    assert not (tmp_path / "ws").exists()
+
+
+def test_sfm_on_views_of_different_sizes_names_them_and_leaves_no_workspace(disk_npz, tmp_path,
+                                                                           capsys):
+    """Issue 32: "images differ in size: [(240, 320), (256, 256)]", and an empty workspace."""
+    paths = _light_fields(disk_npz, tmp_path / "in", [(64, 80), (64, 80), (72, 72)])
+    workspace = tmp_path / "ws"
+    assert main(["sfm", *paths, "--workspace", str(workspace)]) == 1
+    err = capsys.readouterr().err
+    assert (f"the inputs' centre views differ in size: {paths[0]}, {paths[1]} 80x64; "
+            f"{paths[2]} 72x72; expected one camera") in err
+    assert not workspace.exists()
+
+
 def test_outputs_that_would_collide_are_refused(disk_npz, tmp_path, capsys):
     """a/lf_0.5.npy and b/lf_0.5.npy (or lf_0.5 / lf_0.7 cut at the first dot) must not
     overwrite each other's features."""

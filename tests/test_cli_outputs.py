@@ -305,3 +305,31 @@ def test_a_fifo_in_place_of_a_file_is_refused_at_once(disks, tmp_path, capsys, o
     assert fifo.opened == 0
     assert os.path.exists(fifo.path) and not os.path.isfile(fifo.path)  # left as it was
     assert not os.path.exists(tmp_path / "out.npz") or option == "--plot"
+
+
+@pytest.mark.parametrize("change", ["zeroed descriptors", "one keypoint moved", "no digest"])
+def test_an_output_whose_arrays_were_changed_is_redone(disks, tmp_path, capsys, change):
+    """Issue 32: the decision to keep an output read only its meta, so a file whose
+    descriptors were zeroed was kept as "made with the same settings"."""
+    out = tmp_path / "f.npz"
+    assert _detect(disks, out) == 0
+    written = load_features(out)
+    with np.load(out) as data:
+        arrays = {name: data[name] for name in data.files}
+    if change == "zeroed descriptors":
+        arrays["descriptors"] = np.zeros_like(arrays["descriptors"])
+    elif change == "one keypoint moved":
+        arrays["keypoints"][0, 0] += 1
+    else:
+        del arrays["digest"]
+    np.savez_compressed(out, **arrays)  # meta intact
+    if change != "no digest":
+        with pytest.raises(ValueError, match="do not match the digest written with them"):
+            load_features(out)
+    capsys.readouterr()
+    assert _detect(disks, out) == 0
+    printed = capsys.readouterr().out
+    assert f"redoing {out}, out of date: " in printed and "skipped" not in printed
+    assert ("no content digest" if change == "no digest" else "do not match the digest") in printed
+    np.testing.assert_array_equal(load_features(out).descriptors, written.descriptors)
+    assert _detect(disks, out) == 0 and "skipped 1 input(s)" in capsys.readouterr().out

@@ -176,7 +176,7 @@ def test_write_database_errors(tmp_path):
     with pytest.raises(ValueError, match="repeat"):
         colmap.write_database(tmp_path / "b.db", tmp_path / "im", [one, one])
     other = colmap.FeatureImage("b.png", np.zeros((21, 30), np.uint8), [], None)
-    with pytest.raises(ValueError, match="differ in size"):
+    with pytest.raises(ValueError, match="differ in size: a.png 30x20; b.png 30x21; expected one"):
         colmap.write_database(tmp_path / "c.db", tmp_path / "im", [one, other])
     bad = colmap.FeatureImage("b.png", image, one.keypoints * 2, one.descriptors)
     with pytest.raises(ValueError, match="1 descriptors for 2 keypoints"):

@@ -36,7 +36,7 @@ def test_file_is_a_deflated_npz_that_numpy_reads(blob_lf, tmp_path):
     save_features(tmp_path / "f", Features(kps, desc, centre_view(blob_lf)))
     with zipfile.ZipFile(tmp_path / "f.npz") as archive:
         infos = archive.infolist()
-    assert sorted(i.filename for i in infos) == ["centre_view.npy", "descriptors.npy",
+    assert sorted(i.filename for i in infos) == ["centre_view.npy", "descriptors.npy", "digest.npy",
                                                 "keypoints.npy", "meta.npy", "slopes.npy"]
     assert all(i.compress_type == zipfile.ZIP_DEFLATED for i in infos)
     described = next(i for i in infos if i.filename == "descriptors.npy")

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from liff import io
+from lfhelpers import zero_png
 
 COTTON = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "hci" / "cotton"
 
@@ -163,7 +164,9 @@ def test_views_folder_errors(tmp_path):
 
 
 @pytest.mark.parametrize("odd_view, expected", [
-    (np.zeros((5, 6, 3), np.uint8), r"6x5, 3 channel\(s\), uint8; expected 6x4, 3 channel\(s\)"),
+    # a larger view is refused from its header, before it is decoded
+    (np.zeros((5, 6, 3), np.uint8), r"6x5 \(its header\); expected 6x4, 3 channel\(s\), uint8"),
+    (np.zeros((3, 6, 3), np.uint8), r"6x3, 3 channel\(s\), uint8; expected 6x4, 3 channel\(s\)"),
     (np.zeros((4, 6), np.uint8), r"1 channel\(s\).*expected 6x4, 3 channel\(s\)"),
     (np.zeros((4, 6, 4), np.uint8), r"4 channel\(s\).*expected 6x4, 3 channel\(s\)"),
     (np.zeros((4, 6, 3), np.uint16), r"uint16; expected 6x4, 3 channel\(s\), uint8"),
@@ -598,17 +601,6 @@ def test_a_fifo_among_the_views_is_refused_without_opening_it(tmp_path, kind):
 
 # --- OpenCV's decoding errors as liff's: ValueError, MemoryError, naming the file --------
 
-def zero_png(path, width, height):
-    """A valid grey PNG of width x height black pixels (rows compress to almost nothing)."""
-    def chunk(kind, data):
-        return (struct.pack(">I", len(data)) + kind + data +
-                struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
-    packer, row = zlib.compressobj(9), b"\0" * (width + 1)
-    idat = b"".join(packer.compress(row) for _ in range(height)) + packer.flush()
-    Path(path).write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
-                          + chunk(b"IDAT", idat) + chunk(b"IEND", b""))
-
-
 def huge_header_png(path):
     """A PNG whose header claims 100000 x 100000 pixels, more than OpenCV decodes."""
     zero_png(path, 4, 4)
@@ -663,14 +655,14 @@ except MemoryError as e:
 """
 
 
-@pytest.mark.parametrize("kind", ["image", "hci"])
+@pytest.mark.parametrize("kind", ["image", "hci", "views"])
 def test_running_out_of_memory_while_decoding_is_a_memory_error(tmp_path, kind):
     # a 140 KB PNG decodes to 144 MB; with 48 MB left OpenCV raised cv2.error (-4)
     if kind == "image":
         target = path = tmp_path / "big.png"
         zero_png(path, 12000, 12000)
     else:
-        target, path = folder_with(tmp_path, "hci", lambda p: zero_png(p, 12000, 12000))
+        target, path = folder_with(tmp_path, kind, lambda p: zero_png(p, 12000, 12000))
     env = dict(os.environ)
     if "LD_PRELOAD" in env:  # the sanitized run: ASan reserves terabytes of address space;
         del env["LD_PRELOAD"]  # the readers are Python over cv2, the installed liff will do
@@ -679,3 +671,24 @@ def test_running_out_of_memory_while_decoding_is_a_memory_error(tmp_path, kind):
                           capture_output=True, text=True, timeout=120, env=env)
     assert proc.returncode == 0, proc.stderr
     assert f"MemoryError: {path}: not enough memory" in proc.stdout, proc.stdout + proc.stderr
+
+
+def test_only_decode_image_calls_opencvs_decoders():
+    """Every image liff reads goes through liff.io.images.decode_image, which maps
+    cv2.error to ValueError / MemoryError naming the file: no other module calls
+    OpenCV's decoders (where a cv2.error would reach the caller)."""
+    import ast
+
+    decoders = {"imread", "imdecode", "imreadmulti", "imreadanimation", "imcount",
+                "imdecodemulti", "imreadWithMetadata"}
+    package = Path(io.__file__).resolve().parents[1]
+    calls = []  # (file, enclosing function or None) of each use of a decoder
+    for source in sorted(package.rglob("*.py")):
+        tree = ast.parse(source.read_text(), str(source))
+        inside = {}  # id(node) -> the function it is in
+        for function in (node for node in ast.walk(tree) if isinstance(node, ast.FunctionDef)):
+            inside.update((id(node), function.name) for node in ast.walk(function))
+        calls += [(source.relative_to(package).as_posix(), inside.get(id(node)))
+                  for node in ast.walk(tree)
+                  if isinstance(node, ast.Attribute) and node.attr in decoders]
+    assert calls == [("io/images.py", "decode_image")], calls

@@ -16,6 +16,7 @@ from scipy.spatial.transform import Rotation
 
 import liff
 from liff import captures
+import liff.cli.pose
 from liff.cli import main
 from liff.io import read_hci, read_pfm
 
@@ -425,10 +426,15 @@ def test_cli_pose_prints_and_writes_the_metric_pose(pose_files, tmp_path, capsys
     assert np.linalg.norm(np.array(result["t"]) - t_true) <= 0.02 * np.linalg.norm(t_true)
 
 
-def test_cli_pose_needs_a_camera(pose_files, capsys):
+def test_cli_pose_needs_a_camera(pose_files, capsys, monkeypatch):
     _, paths = pose_files
+    detected = []
+    monkeypatch.setattr(liff.cli.pose, "features_from_light_field",
+                        lambda *args: detected.append(args))
     assert main(["pose", paths[0], paths[1], *detector_options()]) == 1
-    assert "no camera calibration" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"no camera calibration for {paths[0]} and {paths[1]}" in err
+    assert detected == []  # said before detecting (it had detected both first)
     assert main(["pose", paths[0], paths[1], "--focus-distance", "3"]) == 1
     assert "--focus-distance goes with --camera" in capsys.readouterr().err
 

@@ -24,6 +24,7 @@ memory from one task to the next in the same process (``liff.keptWorkingMemoryBy
 from __future__ import annotations
 
 import csv
+import itertools
 import os
 import threading
 import time
@@ -32,6 +33,7 @@ from contextlib import ExitStack, contextmanager
 from dataclasses import asdict, dataclass, fields
 from typing import TYPE_CHECKING, List, NamedTuple, Optional, Sequence
 
+from . import _budget
 from ._paths import special_kind
 from .outputs import atomic_output
 
@@ -43,6 +45,8 @@ if TYPE_CHECKING:  # (an optional dependency: pip install "liff[dask]")
 MEMORY_SHARE = 0.75
 #: Seconds to wait for a scheduler before saying it cannot be reached.
 CONNECT_TIMEOUT = 10
+#: Seconds between rewrites of a manifest at the most while a run goes (ManifestWriter).
+MANIFEST_SECONDS = 1.0
 
 
 class Task(NamedTuple):
@@ -113,12 +117,10 @@ def run_task(task: Task) -> Outcome:
 def _memory_hint(error: Exception) -> str:
     """For a MemoryError on a Dask worker: where the limit came from (not only
     setMemoryLimitMB, which the user does not call here)."""
-    from .cli import common
-
-    if not isinstance(error, MemoryError) or common.memory_budget_bytes is None:
+    if not isinstance(error, MemoryError) or _budget.memory_budget_bytes is None:
         return ""
     return (f" (on this Dask worker: {MEMORY_SHARE:.0%} of its memory limit, "
-            f"{common.memory_budget_bytes / MEMORY_SHARE / 1e6:.0f} MB, less what the worker "
+            f"{_budget.memory_budget_bytes / MEMORY_SHARE / 1e6:.0f} MB, less what the worker "
             "process holds with the light field read; or give workers more memory: dask worker "
             "--memory-limit)")
 
@@ -136,19 +138,18 @@ def _worker_resources():
         yield ""
         return
     from . import getNumThreads, setNumThreads
-    from .cli import common
 
-    threads, budget = getNumThreads(), common.memory_budget_bytes
+    threads, budget = getNumThreads(), _budget.memory_budget_bytes
     setNumThreads(worker.state.nthreads)
     limit = worker.memory_manager.memory_limit
     if limit:
         # The detector's limit is what this leaves once the input is read (make_detector).
-        common.memory_budget_bytes = int(MEMORY_SHARE * limit)
+        _budget.memory_budget_bytes = int(MEMORY_SHARE * limit)
     try:
         yield worker.address
     finally:
         setNumThreads(threads)
-        common.memory_budget_bytes = budget
+        _budget.memory_budget_bytes = budget
 
 
 def connect(client) -> "distributed.Client":
@@ -328,6 +329,76 @@ def write_manifest(path: str, outcomes: Sequence[Outcome]) -> None:
         writer.writerows(asdict(outcome) for outcome in outcomes)
 
 
+class ManifestWriter:
+    """A run's manifest written as the run goes: each outcome :meth:`add`-ed is in the
+    file within ``every`` seconds, and leaving the ``with`` block (the run done,
+    failed, interrupted by Ctrl-C or SIGTERM) writes every outcome so far. Each write
+    replaces the file atomically (:func:`write_manifest`), so a run stopped at any
+    moment (SIGKILL, a full disk) leaves the manifest of what it had finished by its
+    last write, never a truncated one.
+
+    Parameters
+    ----------
+    path : str
+        The manifest.
+    outcomes : sequence of Outcome
+        Rows known before the run (outputs kept), written at once.
+    every : float, optional
+        Seconds between writes at the most while outcomes come (default
+        :data:`MANIFEST_SECONDS`; the whole manifest is rewritten each time, so a run
+        of many short tasks does not rewrite it per task).
+    """
+
+    def __init__(self, path: str, outcomes: Sequence[Outcome] = (),
+                 every: Optional[float] = None):
+        every = MANIFEST_SECONDS if every is None else every
+        self.path, self.every, self.outcomes = path, every, list(outcomes)
+        self.written = time.monotonic()
+        write_manifest(path, self.outcomes)
+
+    def add(self, outcome: Outcome) -> None:
+        self.outcomes.append(outcome)
+        if time.monotonic() - self.written >= self.every:
+            self.write()
+
+    def write(self) -> None:
+        write_manifest(self.path, self.outcomes)
+        self.written = time.monotonic()
+
+    def __enter__(self) -> "ManifestWriter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.write()
+
+
+def new_manifest_name(folder: str, now: Optional[float] = None) -> str:
+    """``FOLDER/manifest-<UTC time>.csv``, created empty at once so that no other run
+    takes the name: a run started in the same second gets ``...-2.csv`` (then -3, ...).
+    ``now``: the time (``time.time()``, the default).
+
+    Raises
+    ------
+    ValueError
+        Naming the folder, if the file cannot be created there.
+    """
+    from .outputs import make_folder
+
+    make_folder(folder)
+    stamp = time.strftime("manifest-%Y%m%d-%H%M%S", time.gmtime(now))
+    for number in itertools.count(1):
+        path = os.path.join(folder, stamp + (f"-{number}" if number > 1 else "") + ".csv")
+        try:
+            os.close(os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+            return path
+        except FileExistsError:
+            continue
+        except OSError as error:
+            raise ValueError(f"{folder}: cannot create a manifest there ({error.strerror}); "
+                             "expected a writable --out folder") from None
+    raise AssertionError("unreachable")
+
+
 def is_manifest(path: str) -> bool:
     """Whether ``path`` is a manifest :func:`write_manifest` wrote (its CSV header)."""
     header = ",".join(MANIFEST_FIELDS)
@@ -360,9 +431,10 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
     overwrite : bool
         Redo outputs made with the same settings too.
     manifest : str, optional
-        Where to write the run's manifest (CSV); refused (ValueError, before anything
-        runs) if it is an input, an output, or an existing file other than a liff
-        manifest (unless ``overwrite``).
+        Where to write the run's manifest (CSV), as the run goes (:class:`ManifestWriter`:
+        a run stopped early leaves the manifest of what it finished); refused
+        (ValueError, before anything runs) if it is an input, an output, or an existing
+        file other than a liff manifest (unless ``overwrite``).
     **parameters
         ``liff.LiFF.create`` keywords. A slope bound not given comes from the range a
         reader knows (an HCI scene's parameters.cfg), else is automatic, as in
@@ -383,7 +455,7 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
 
     from . import PARAMETERS
     from .cli import common
-    from .cli.detect import check_manifest, plan
+    from .cli.detect import check_manifest, manifest_writer, plan
 
     if isinstance(paths, (str, os.PathLike)):  # one path, not its letters
         paths = [paths]
@@ -401,11 +473,14 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
     tasks, kept, _ = plan(args, dict(reader_options or {}), wanted)
     if manifest:
         check_manifest(manifest, args, tasks, kept)
-    if client is not None:
-        outcomes = run(tasks, client)
-    else:
-        outcomes = common.run_batch(run_task, [(t,) for t in tasks], workers, "detect", str)[0]
-    outcomes += kept
-    if manifest:
-        write_manifest(manifest, outcomes)
+    with manifest_writer(manifest, kept) as writer:
+        done = writer.add if writer else None
+        if client is not None:
+            outcomes = run(tasks, client, progress=done)
+        else:
+            outcomes = common.run_batch(run_task, [(t,) for t in tasks], workers, "detect", str,
+                                        done=done)[0]
+        outcomes += kept
+        if writer:
+            writer.outcomes = outcomes  # in the order of the inputs
     return outcomes

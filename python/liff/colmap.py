@@ -233,6 +233,20 @@ def prepare_light_field(lf: np.ndarray, gamma: float = 0.5, equalise=True) -> np
 
 # --- the pipeline ----------------------------------------------------------------------
 
+def describe_sizes(names: Sequence[str], shapes: Sequence[Tuple[int, ...]], limit: int = 3) -> str:
+    """"a.png, b.png 320x240; c.png 256x256": the names of each size (height, width, ...),
+    the most common size first, at most ``limit`` names a size (then "and N more")."""
+    groups: dict = {}
+    for name, shape in zip(names, shapes):
+        groups.setdefault(tuple(shape[:2]), []).append(name)
+    parts = []
+    for (height, width), members in sorted(groups.items(), key=lambda item: -len(item[1])):
+        shown = ", ".join(members[:limit]) + (f" and {len(members) - limit} more"
+                                              if len(members) > limit else "")
+        parts.append(f"{shown} {width}x{height}")
+    return "; ".join(parts)
+
+
 def write_database(
     database_path: PathLike,
     image_dir: PathLike,
@@ -274,7 +288,8 @@ def write_database(
                              f"{', '.join(IMAGE_SUFFIXES)}")
     grey = [grey_uint8_image(im.image) for im in images]
     if len({g.shape for g in grey}) != 1:
-        raise ValueError(f"images differ in size: {sorted({g.shape for g in grey})}")
+        raise ValueError(f"images differ in size: {describe_sizes(names, [g.shape for g in grey])}; "
+                         "expected one size (all images share one camera)")
     features = [(keypoints_to_colmap(im.keypoints), descriptors_to_colmap(im.descriptors, len(im.keypoints)))
                 for im in images]  # validate everything before writing anything
     height, width = grey[0].shape

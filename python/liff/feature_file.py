@@ -11,11 +11,16 @@ Arrays in the file:
 ``meta``       str            JSON: how the file was made (source, reader options,
                               preprocessing, detector parameters, liff version) and
                               the light field's shape; :func:`read_meta` reads it alone
+``digest``     str            ``sha256:<hex>`` of the other arrays (name, dtype,
+                              shape and bytes; :func:`content_digest`), so that a
+                              file whose arrays were changed is told from the one
+                              written (:func:`content_problem`, :func:`load_features`)
 ============== ============== ==================================================
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import zipfile
@@ -37,6 +42,8 @@ _FLOAT32_MAX = float(np.finfo(np.float32).max)
 #: field's 5701 features in 0.066 s against numpy's savez_compressed (level 6) 0.347 s,
 #: for a file 22% larger (benchmarks/batch.py; docs/BENCHMARKS.md, "Batches and Dask").
 COMPRESSION_LEVEL = 1
+#: the member holding the digest of the others
+DIGEST_KEY = "digest"
 
 
 @dataclass
@@ -96,7 +103,43 @@ def save_features(path: PathLike, features: Features) -> None:
                   meta=np.array(json.dumps(features.meta)))
     if features.centre_view is not None:
         arrays["centre_view"] = to_display(features.centre_view)
+    arrays = {name: np.asanyarray(array) for name, array in arrays.items()}
+    arrays[DIGEST_KEY] = np.array(content_digest(arrays))
     _write_npz(path, arrays)
+
+
+def content_digest(arrays: dict) -> str:
+    """``sha256:<hex>`` of a feature file's arrays but ``digest``: each one's name,
+    dtype, shape and bytes, in name order."""
+    digest = hashlib.sha256()
+    for name in sorted(arrays):
+        if name == DIGEST_KEY:
+            continue
+        array = np.asarray(arrays[name])
+        digest.update(f"{name}:{array.dtype.str}:{array.shape};".encode())
+        digest.update(array.tobytes())
+    return "sha256:" + digest.hexdigest()
+
+
+def content_problem(path: PathLike) -> Optional[str]:
+    """Why the feature file ``path`` is not the one liff wrote (its arrays do not match
+    the digest written with them, it has no digest, or an array cannot be read), or
+    None when its content checks."""
+    try:
+        with np.load(os.fspath(path), allow_pickle=False) as data:
+            arrays = {name: data[name] for name in data.files}
+    except Exception as error:  # numpy/zipfile raise many kinds on a damaged file
+        return f"its arrays cannot be read ({type(error).__name__}: {error})"
+    return _digest_problem(arrays)
+
+
+def _digest_problem(arrays: dict) -> Optional[str]:
+    """Why ``arrays`` (a feature file's, read) do not check against their digest, or None."""
+    if DIGEST_KEY not in arrays:
+        return "it has no content digest (written by an older liff)"
+    if str(arrays[DIGEST_KEY]) != content_digest(arrays):
+        return "its arrays do not match the digest written with them (changed since)"
+    return None
 
 
 def _write_npz(path: PathLike, arrays: dict) -> None:
@@ -119,8 +162,9 @@ def load_features(path: PathLike) -> Features:
     ------
     ValueError
         Naming the file: not an npz, a missing or damaged array (not a numeric array,
-        NaN or infinity, an octave or slope beyond what cv2.KeyPoint holds), or arrays
-        of inconsistent shapes.
+        NaN or infinity, an octave or slope beyond what cv2.KeyPoint holds), arrays
+        of inconsistent shapes, or arrays that do not match the digest written with
+        them (a file without a digest, from an older liff, is read as it is).
     """
     path = os.fspath(path)
     refuse_special(path, "a liff feature file (.npz)")
@@ -134,12 +178,16 @@ def load_features(path: PathLike) -> Features:
             raise ValueError(f"{path}: no {', '.join(missing)} array; expected a liff feature "
                              "file written by `liff detect`")
         try:  # members are read (and parsed) only now
-            rows, slopes, descriptors = data["keypoints"], data["slopes"], data["descriptors"]
-            view = data["centre_view"] if "centre_view" in data.files else None
-            meta = json.loads(str(data["meta"])) if "meta" in data.files else {}
+            arrays = {name: data[name] for name in data.files}
+            rows, slopes, descriptors = arrays["keypoints"], arrays["slopes"], arrays["descriptors"]
+            view = arrays.get("centre_view")
+            meta = json.loads(str(arrays["meta"])) if "meta" in arrays else {}
         except Exception as error:
             raise ValueError(f"{path}: damaged feature file ({type(error).__name__}: {error}); "
                              "expected one written by `liff detect`") from None
+    problem = _digest_problem(arrays) if DIGEST_KEY in arrays else None  # none: older liff
+    if problem:
+        raise ValueError(f"{path}: {problem}; expected the feature file `liff detect` wrote")
     _check_arrays(path, rows, slopes, descriptors, view, meta)
     n = len(rows)
     # class_id: the slope packed as round(slope * SLOPE_SCALE), as the detector does

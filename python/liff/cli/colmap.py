@@ -93,7 +93,10 @@ def features_for_colmap(path: str, options: dict, preprocess: bool, parameters: 
 def write(args: argparse.Namespace, database: str, image_dir: str, focal=None,
           principal_point=None, images_out=None) -> int:
     """Detects (or loads) features of every input and writes the database; returns the
-    number of inputs that failed. ``focal`` and ``principal_point`` (OpenCV pixels)
+    number of inputs that failed (``liff colmap``: any failure is an error, and nothing
+    is written; ``liff sfm`` goes on with the others and says how many the database
+    holds). Inputs of different view sizes are refused, naming them, before anything is
+    written (no workspace is made). ``focal`` and ``principal_point`` (OpenCV pixels)
     default to ``--focal`` and the image centre; the images written are appended to
     ``images_out`` if given."""
     from .. import colmap
@@ -112,15 +115,23 @@ def write(args: argparse.Namespace, database: str, image_dir: str, focal=None,
             for path in args.paths]
     results, failures = common.run_batch(features_for_colmap, jobs, args.workers, args.command,
                                          label=lambda job: job[0])
-    images = []
-    for name, result in zip(names, results):
+    images, read = [], []
+    for path, name, result in zip(args.paths, names, results):
         if result is None:
             continue
         view, rows, descriptors = result
         images.append(colmap.FeatureImage(name, view, rows_to_keypoints(rows), descriptors))
+        read.append(path)
     if not images:
         raise ValueError("no input could be read; nothing written")
-    os.makedirs(os.path.dirname(os.path.abspath(database)), exist_ok=True)
+    if failures and args.command == "colmap":  # a database of some inputs is no answer
+        raise ValueError(f"{failures} of {len(names)} input(s) failed (above); expected every "
+                         "input read: no database written, nothing left")
+    shapes = [im.image.shape for im in images]
+    if len({shape[:2] for shape in shapes}) > 1:  # before anything is written
+        raise ValueError(f"the inputs' centre views differ in size: "
+                         f"{colmap.describe_sizes(read, shapes)}; expected one camera (one "
+                         "view size); nothing written")
     colmap.write_database(database, image_dir, images, focal=args.focal if focal is None else focal,
                           principal_point=principal_point)
     if images_out is not None:

@@ -16,6 +16,8 @@ from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .. import _budget
+from .._budget import held_bytes  # noqa: F401 (liff.cli.common.held_bytes)
 from .._detector import PARAMETERS, LiFF
 from .._paths import refuse_special
 from .._processes import stop_now
@@ -237,35 +239,19 @@ def slope_range(parameters: dict, metadata: dict) -> Tuple[dict, str]:
     return with_defaults(resolved), " + ".join(sorted(set(sources), key=order.index))
 
 
-#: Bytes this process may hold while a detector made here runs, its input included
-#: (None: no bound; LiFF's default limit, the memory available when a call starts).
-#: liff.batch sets it on a Dask worker from the worker's memory limit.
-memory_budget_bytes: Optional[int] = None
-
-
-def held_bytes() -> int:
-    """Memory this process holds that a detection cannot use: its resident size less
-    the working memory LiFF keeps for reuse (``liff.keptWorkingMemoryBytes``, which the
-    next call takes rather than adds to), at least 0."""
-    import psutil  # a dependency of distributed: this runs on Dask workers
-
-    from .._core import keptWorkingMemoryBytes
-
-    return max(0, psutil.Process().memory_info().rss - keptWorkingMemoryBytes())
-
-
 def make_detector(parameters: dict) -> LiFF:
-    """A detector with ``parameters``; under a :data:`memory_budget_bytes`, its memory
+    """A detector with ``parameters``; under a ``liff._budget.memory_budget_bytes``, its memory
     limit (setMemoryLimitMB) is what the budget leaves of what the process holds now,
     so a light field read before the detector is made counts against the budget."""
     detector = LiFF.create(**parameters)
-    if memory_budget_bytes is not None:
+    budget = _budget.memory_budget_bytes
+    if budget is not None:
         held = held_bytes()
-        if held >= memory_budget_bytes:
+        if held >= budget:
             raise MemoryError(f"the process holds {held / 1e6:.0f} MB with the light field "
-                              f"read, all of its memory budget of {memory_budget_bytes / 1e6:.0f} "
+                              f"read, all of its memory budget of {budget / 1e6:.0f} "
                               "MB, leaving LiFF none; expected more memory for the task")
-        detector.setMemoryLimitMB(max(1, int((memory_budget_bytes - held) / 2**20)))
+        detector.setMemoryLimitMB(max(1, int((budget - held) / 2**20)))
     return detector
 
 
@@ -480,10 +466,12 @@ def error_line(command: str, name: str, error: str) -> str:
 
 
 def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: str,
-              label: Callable[[tuple], str]) -> Tuple[List, int]:
+              label: Callable[[tuple], str],
+              done: Optional[Callable[[object], None]] = None) -> Tuple[List, int]:
     """Runs ``function(*job)`` for every job, on ``workers`` processes (1 = here), with a
     progress bar on stderr (see :func:`progress`). A job that raises is reported as
-    ``liff <command>: <label>: <error>`` and the rest go on.
+    ``liff <command>: <label>: <error>`` and the rest go on; ``done(result)`` is called
+    with each job's result as it comes (e.g. to write a manifest as the run goes).
 
     Returns (results in job order, None for failures; number of failures).
     """
@@ -501,6 +489,8 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
         for i, job in enumerate(jobs):
             try:
                 results[i] = function(*job)
+                if done:
+                    done(results[i])
             except (ValueError, OSError, MemoryError) as error:
                 report(i, error)
             if progress:
@@ -517,6 +507,8 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
                 i = futures[future]
                 try:
                     results[i] = future.result()
+                    if done:
+                        done(results[i])
                 except (ValueError, OSError, MemoryError) as error:
                     report(i, error)
                 if progress:

@@ -5,16 +5,16 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 import warnings
-from typing import List, NamedTuple, Optional, Tuple
+from contextlib import contextmanager
+from typing import Callable, List, NamedTuple, Optional, Tuple
 
 import cv2
 
 from .. import __version__, batch
 from .._detector import as_read_in_place
 from .._warnings import LiffWarning
-from ..feature_file import Features, centre_view, read_meta, save_features
+from ..feature_file import Features, centre_view, content_problem, read_meta, save_features
 from ..io.images import write_image
 from ..outputs import atomic_output, refuse_inputs
 from ..plot import draw_keypoints_by_slope
@@ -48,8 +48,9 @@ def add_parser(sub) -> None:
                         "docs/BATCH.md")
     p.add_argument("--manifest", default=None, metavar="CSV",
                    help="write the run's manifest (input, output, status, features, slope "
-                        "range, seconds, CPU seconds, error, worker) here (default for several inputs: "
-                        "OUT/manifest-<UTC time>.csv)")
+                        "range, seconds, CPU seconds, error, worker) here, as the run goes "
+                        "(default for several inputs: OUT/manifest-<UTC time>.csv, or "
+                        "...-2.csv when a run of the same second has taken it)")
     mask.add_mask_option(p)
     p.add_argument("--overwrite", action="store_true",
                    help="redo outputs that exist even if made with the same settings, and "
@@ -156,6 +157,9 @@ def changes(out: str, plot: Optional[str], wanted: dict) -> Optional[List[str]]:
         changed = common.modified_after(wanted["source"], out)
     if not differ and changed:
         differ = ["the input changed after the output was made"]
+    if not differ:  # the settings match: keep it only if its content is what was written
+        problem = content_problem(out)
+        differ = [problem] if problem else []
     if not differ and plot and not os.path.exists(plot):
         return []
     return differ or None
@@ -218,12 +222,16 @@ def plan(args: argparse.Namespace, options: dict, parameters: dict) -> tuple:
     return tasks, kept, redo
 
 
-def run_tasks(tasks: List[batch.Task], args: argparse.Namespace) -> List[batch.Outcome]:
+def run_tasks(tasks: List[batch.Task], args: argparse.Namespace,
+              done: Optional[Callable[[batch.Outcome], None]] = None) -> List[batch.Outcome]:
     """Runs the tasks on the Dask cluster of ``--scheduler`` or on ``--workers`` local
-    processes, with a progress bar; failures are reported as they come."""
+    processes, with a progress bar; failures are reported as they come, and each
+    outcome is handed to ``done`` as it comes (the manifest)."""
     def report(outcome: batch.Outcome) -> None:
         if outcome.error:
             bar.write(failure_line(outcome), file=sys.stderr)
+        if done:
+            done(outcome)
         bar.update()
 
     if args.scheduler:
@@ -231,7 +239,7 @@ def run_tasks(tasks: List[batch.Task], args: argparse.Namespace) -> List[batch.O
             return batch.run(tasks, args.scheduler, progress=report,
                              notice=lambda text: bar.write(f"liff detect: {text}", file=sys.stderr))
     outcomes, _ = common.run_batch(batch.run_task, [(task,) for task in tasks], args.workers,
-                                   "detect", label=lambda job: job[0].source)
+                                   "detect", label=lambda job: job[0].source, done=done)
     outcomes = [o or batch.Outcome(t.source, t.output, "failed", error="reported above")
                 for t, o in zip(tasks, outcomes)]
     for outcome in outcomes:
@@ -246,15 +254,24 @@ def failure_line(outcome: batch.Outcome) -> str:
     return common.error_line("detect", outcome.input, outcome.error.removeprefix("ValueError: "))
 
 
-def manifest_path(args: argparse.Namespace) -> Optional[str]:
-    """``--manifest``, else ``OUT/manifest-<UTC time>.csv`` for a batch (several inputs,
-    or --scheduler) into a folder ``--out``."""
+def wants_run_manifest(args: argparse.Namespace) -> bool:
+    """Whether the run writes ``OUT/manifest-<UTC time>.csv`` without a ``--manifest``:
+    a batch (several inputs, or --scheduler) into a folder ``--out``."""
     batch_run = len(args.paths) > 1 or args.scheduler
     # (called before the run, when a folder --out for several inputs may not exist yet)
     folder = args.out and (os.path.isdir(args.out) or args.out.endswith(os.sep) or len(args.paths) > 1)
-    if args.manifest or not (batch_run and folder):
-        return args.manifest
-    return os.path.join(args.out, time.strftime("manifest-%Y%m%d-%H%M%S.csv", time.gmtime()))
+    return not args.manifest and bool(batch_run and folder)
+
+
+@contextmanager
+def manifest_writer(manifest: Optional[str], kept: List[batch.Outcome]):
+    """A :class:`batch.ManifestWriter` for ``manifest`` starting with the ``kept``
+    outcomes, or None without a manifest."""
+    if not manifest:
+        yield None
+        return
+    with batch.ManifestWriter(manifest, kept) as writer:
+        yield writer
 
 
 def check_manifest(manifest: str, args: argparse.Namespace, tasks: List[batch.Task],
@@ -291,12 +308,17 @@ def run(args: argparse.Namespace) -> int:
     mask.check_mask_option(getattr(args, "mask", None))
     tasks, kept, redo = plan(args, common.reader_options(args),
                              common.detector_parameters(args, given_only=True))
-    manifest = manifest_path(args)
+    manifest = args.manifest
     if manifest:
         check_manifest(manifest, args, tasks, kept)
+    elif wants_run_manifest(args):  # a name of its own, taken now (after the checks)
+        manifest = batch.new_manifest_name(args.out)
     for out, reasons in redo.items():
         print(f"redoing {out}, out of date: {'; '.join(reasons)}")
-    outcomes = run_tasks(tasks, args)
+    with manifest_writer(manifest, kept) as writer:
+        outcomes = run_tasks(tasks, args, writer.add if writer else None)
+        if writer:
+            writer.outcomes = outcomes + kept  # in the order of the inputs
     for task, outcome in zip(tasks, outcomes):
         if outcome.status == "done":
             print(f"{outcome.input}: {outcome.features} features -> {outcome.output}"
@@ -308,7 +330,6 @@ def run(args: argparse.Namespace) -> int:
               "(--overwrite to redo them)")
     failed = sum(outcome.status == "failed" for outcome in outcomes)
     if manifest:
-        batch.write_manifest(manifest, outcomes + kept)
         print(f"manifest: {manifest}")
     if failed:
         print(f"liff detect: {failed} of {len(tasks)} light field(s) failed", file=sys.stderr)

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import configparser
 import json
+import os
 
 import numpy as np
 
@@ -51,17 +53,39 @@ def features_and_camera(path: str, args: argparse.Namespace):
     return features_from_light_field(detector, light_field), source.metadata.get("camera")
 
 
+def carries_camera(path: str, args: argparse.Namespace) -> bool:
+    """Whether the input ``path`` carries its camera's calibration (an HCI scene whose
+    parameters.cfg holds the camera's entries), told without reading its light field."""
+    from .. import io
+    from ..camera import HCI_CAMERA_KEYS
+
+    if is_feature_file(path) or (args.format or io.guess_format(path)) != "hci":
+        return False
+    cfg = os.path.join(path, "parameters.cfg")
+    if not os.path.isfile(cfg):
+        return False
+    parser = configparser.ConfigParser(interpolation=None)
+    try:
+        with open(cfg, encoding="utf-8") as f:
+            parser.read_file(f)
+    except (OSError, configparser.Error, UnicodeDecodeError):
+        return False  # (the reader says what is wrong with it)
+    return all(parser.has_option(section, key) for section, key in HCI_CAMERA_KEYS)
+
+
 def run(args: argparse.Namespace) -> int:
     from ..pose import estimate_relative_pose
 
     camera = camera_from_args(args)
+    without = [path for path in (args.a, args.b) if not carries_camera(path, args)]
+    if camera is None and without:  # said before anything is read or detected
+        raise ValueError(f"no camera calibration for {' and '.join(without)}: give --camera F B "
+                         "CX CY (and --focus-distance), --hci or --lftoolbox, or inputs that "
+                         "carry one (HCI scenes with the camera in parameters.cfg)")
     fa, camera_a = features_and_camera(args.a, args)
     fb, camera_b = features_and_camera(args.b, args)
     if camera is not None:
         camera_a = camera_b = camera
-    if camera_a is None or camera_b is None:
-        raise ValueError("no camera calibration: give --camera F B CX CY (and --focus-distance), "
-                         "--hci or --lftoolbox, or inputs that carry one (HCI scenes)")
     _check(fa, args.a)
     _check(fb, args.b)
     R, t, matches = estimate_relative_pose(fa.keypoints, fa.descriptors, fb.keypoints,

@@ -45,8 +45,21 @@ MAX_NAMES = 1 << 20
 CHUNK = 1 << 20
 
 
+#: bytes per element SciPy allocates per MATLAB class (numeric classes; char arrays are
+#: read as 4-byte characters, cells as object arrays of 8-byte references)
+CLASS_BYTES = {6: 8, 7: 4, 8: 1, 9: 1, 10: 2, 11: 2, 12: 4, 13: 4, 14: 8, 15: 8, CHAR: 4, CELL: 8}
+
+
 class Damaged(Exception):
     """The variable is not one this guard lets through; the message says why."""
+
+
+class TooLarge(Exception):
+    """Reading the variable would take more than the limit: at least ``claimed`` bytes."""
+
+    def __init__(self, claimed: int):
+        super().__init__(f"at least {claimed} bytes")
+        self.claimed = claimed
 
 
 class _Stream:
@@ -54,7 +67,7 @@ class _Stream:
     chunks, so that skipping a large array costs no memory)."""
 
     def __init__(self, data: bytes, compressed: bool):
-        self.data = data
+        self.data, self.compressed = data, compressed
         self.inflater = zlib.decompressobj() if compressed else None
         self.buffer, self.offset = (b"", 0) if compressed else (data, 0)
 
@@ -94,8 +107,15 @@ class _Stream:
 class _Walker:
     """Reads a variable's elements in SciPy's order, checking each type code."""
 
-    def __init__(self, stream: _Stream, order: str):
+    def __init__(self, stream: _Stream, order: str, limit: Optional[int] = None):
         self.stream, self.order, self.arrays = stream, order, 0
+        self.limit, self.claimed = limit, 0
+
+    def claim(self, count: int) -> None:
+        """Counts ``count`` bytes SciPy will allocate; TooLarge past the limit."""
+        self.claimed += count
+        if self.limit is not None and self.claimed > self.limit:
+            raise TooLarge(self.claimed)
 
     def tag(self) -> Tuple[int, int, Optional[bytes]]:
         """(type, byte count, data of a small element or None), as SciPy's cread_tag."""
@@ -115,6 +135,8 @@ class _Walker:
             raise Damaged(f"{what} has data type {kind}; expected one of {sorted(allowed)}")
         if small is not None:
             return small
+        if self.stream.compressed:  # SciPy holds the inflated variable beside its arrays
+            self.claim(count)
         if keep:
             if count > keep:
                 raise Damaged(f"{what} takes {count} bytes; expected at most {keep}")
@@ -147,6 +169,7 @@ class _Walker:
         size = 1
         for d in struct.unpack(self.order + f"{len(dims) // 4}i", dims[: len(dims) // 4 * 4]):
             size *= max(d, 0)
+        self.claim(size * CLASS_BYTES.get(mclass, 0) * (1 + is_complex))  # before any data
         if mclass in NUMERIC_CLASSES:
             for _ in range(1 + is_complex):
                 self.element(NUMERIC_TYPES, "numeric data")
@@ -229,26 +252,36 @@ def list_variables(data: bytes):
     return [(name, dims, mclass) for name, dims, mclass, *_ in _variables(data, order)]
 
 
-def extract_variable(data: bytes, name: str) -> bytes:
+def extract_variable(data: bytes, name: str, limit: Optional[int] = None) -> bytes:
     """A MAT v5 file holding only the variable ``name`` of the MAT v5 file ``data``, once
     every element SciPy will read of it has been checked.
+
+    Parameters
+    ----------
+    limit : int, optional
+        Bytes SciPy may allocate reading the variable (its arrays, as their dimensions
+        state, and the inflated data of a compressed variable); counted as the walk
+        goes, before any data is inflated past them.
 
     Raises
     ------
     Damaged
         With what is wrong: a damaged header or element, no variable ``name``, a type
         code SciPy would not survive, or a class other than numeric, char, cell, struct.
+    TooLarge
+        If the variable would take more than ``limit`` bytes.
     """
     order = _header_order(data)
     for found, _, _, start, end, stream in _variables(data, order):
         if found == name:
-            _Walker(stream(), order).matrix()
+            _Walker(stream(), order, limit).matrix()
             return data[:116] + bytes(8) + data[124:128] + data[start:end]  # no subsystem data
     raise Damaged(f"no variable {name!r} found")
 
 
-def loadmat_checked(scipy_io, data: bytes, name: str):
-    """``scipy.io.loadmat`` of the variable ``name`` alone, after :func:`extract_variable`."""
-    single = extract_variable(data, name)
+def loadmat_checked(scipy_io, data: bytes, name: str, limit: Optional[int] = None):
+    """``scipy.io.loadmat`` of the variable ``name`` alone, after :func:`extract_variable`
+    (which raises TooLarge past ``limit`` bytes)."""
+    single = extract_variable(data, name, limit)
     return scipy_io.loadmat(io.BytesIO(single), variable_names=[name], squeeze_me=False,
                             struct_as_record=True, mat_dtype=False)[name]

@@ -226,7 +226,7 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
     detected = n is None
     if not detected:
         n = positive_int(n, "lenslet size n", path, 1)
-    image = read_image(path)
+    image = read_image(path, copies=2)  # the image and the light field rearranged from it
     evidence: dict = {}
     if detected:
         n, evidence = detect_lenslet_size(image, source=path)

@@ -16,9 +16,10 @@ from typing import Optional, Union
 import cv2
 import numpy as np
 
+from .._budget import array_bytes, check_fits
 from ..camera import HCI_CAMERA_KEYS, LightFieldCamera
 from ._shared import describe_missing
-from .images import decode_image
+from .images import decode_image, header_size
 from .pfm import read_pfm
 from .._paths import refuse_special
 
@@ -111,6 +112,12 @@ def read_hci(folder: PathLike) -> HciScene:
     lf = None
     for index in range(T * S):
         refuse_special(views[index], "an HCI view (PNG image)")
+        size = header_size(views[index])
+        if first is None and size is not None:  # BGR uint8, as IMREAD_COLOR decodes
+            check_fits(folder, array_bytes((T, S, size.height, size.width, 3), 1),
+                       f"a light field of {T}x{S} views of {size.width}x{size.height} BGR")
+        elif first is not None and size is not None and size.height * size.width > first[0] * first[1]:
+            raise _size_differs(views[index], (size.height, size.width), first, " (its header)")
         image = decode_image(views[index], cv2.IMREAD_COLOR)
         if image is None:
             raise ValueError(f"{views[index]}: unreadable image")
@@ -118,8 +125,7 @@ def read_hci(folder: PathLike) -> HciScene:
             first = image.shape
             lf = np.empty((T, S) + first, np.uint8)
         elif image.shape != first:
-            raise ValueError(f"{views[index]}: size {image.shape[1]}x{image.shape[0]} differs "
-                             f"from the first view's {first[1]}x{first[0]}")
+            raise _size_differs(views[index], image.shape, first)
         lf[index // S, index % S] = image
 
     meta = parameters.get("meta", {})
@@ -142,3 +148,9 @@ def read_hci(folder: PathLike) -> HciScene:
                              f"{camera.principal_point[1] * 2 + 1:g} differs from the views' "
                              f"{first[1]}x{first[0]}")
     return HciScene(lf, disp_min, disp_max, gt, parameters, camera)
+
+
+def _size_differs(path: str, shape, first, how: str = "") -> ValueError:
+    """The error for a view of ``shape`` (V, U, ...) unlike the first view's ``first``."""
+    return ValueError(f"{path}: size {shape[1]}x{shape[0]}{how} differs from the first "
+                      f"view's {first[1]}x{first[0]}")

@@ -23,6 +23,7 @@ from typing import Optional
 
 import numpy as np
 
+from .._budget import array_bytes, check_fits
 from ._shared import (LightFieldFile, PathLike, optional_module, pick_key, rgb_light_field,
                       stored_file)
 
@@ -59,6 +60,10 @@ def read_hdf5(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
         Naming the file: not HDF5, a MATLAB v7.3 file (read it with ``read_mat``),
         ``key`` absent, several candidate datasets and no ``key``, or a dataset that is
         not a light field.
+    MemoryError
+        Naming the file and dataset: its shape says it takes more than the memory budget
+        leaves (:func:`check_dataset_fits`), however small the file (a dataset never
+        written, or compressed).
     ImportError
         If h5py is not installed, naming ``liff[hdf5]``.
     """
@@ -77,6 +82,7 @@ def read_hdf5(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
             key = pick_key(path, sorted(found), key.strip("/") if key else None, LF_DATASET,
                            datasets, "dataset")
             node = f[key]
+            check_dataset_fits(f"{path}[{key!r}]", node)
             try:
                 array = node[()]
             except MemoryError:
@@ -84,13 +90,22 @@ def read_hdf5(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
                                  f"in memory") from None
             attributes = {**_attributes(f.attrs), **_attributes(node.attrs)}
     except Exception as e:  # h5py raises OSError, KeyError, ValueError, ... on damaged files
-        if isinstance(e, ValueError) and str(e).startswith(path):  # liff's own, naming the file
+        if isinstance(e, (ValueError, MemoryError)) and str(e).startswith(path):  # liff's own
             raise
         raise ValueError(f"{path}: unreadable ({type(e).__name__}: {e}); expected an HDF5 file "
                          f"holding a light field") from None
     light_field = rgb_light_field(np.asarray(array), f"{path}[{key!r}]")
     metadata = {"key": key, "datasets": datasets, "attributes": attributes}
     return LightFieldFile(light_field, "hdf5", metadata, None, path)
+
+
+def check_dataset_fits(source: str, dataset) -> None:
+    """Raises MemoryError naming ``source``, the dataset's shape, dtype and bytes, and
+    the budget, if reading the h5py ``dataset`` would not fit the memory budget
+    (:func:`liff._budget.check_fits`): its shape and dtype are what reading allocates,
+    whatever the file holds (fill value only, gzip-compressed chunks)."""
+    check_fits(source, array_bytes(dataset.shape or (), dataset.dtype.itemsize),
+               f"a dataset of shape {dataset.shape} {dataset.dtype}")
 
 
 def _attributes(attrs) -> dict:

@@ -13,7 +13,9 @@ from typing import Optional, Union
 import cv2
 import numpy as np
 
+from .._budget import check_fits
 from .._paths import refuse_special
+from .image_headers import DecodedSize, decoded_size
 
 PathLike = Union[str, os.PathLike]
 
@@ -46,15 +48,70 @@ def decode_image(path: str, flags: int) -> Optional[np.ndarray]:
             raise MemoryError(f"{path}: not enough memory to decode the image ({reason}); "
                               "expected an image that fits in the memory available") from None
         if "CV_IO_MAX_IMAGE_PIXELS" in reason:
-            raise ValueError(f"{path}: the image's header claims more pixels than OpenCV "
-                             f"decodes ({reason}); expected an image of at most 2^30 pixels "
-                             "(OPENCV_IO_MAX_IMAGE_PIXELS)") from None
+            raise _too_many_pixels(path, reason) from None
         raise ValueError(f"{path}: OpenCV cannot decode the image ({reason}); expected a "
                          "well-formed image (PNG, TIFF, JPEG, ...)") from None
 
 
-def read_image(path: PathLike) -> np.ndarray:
+def _too_many_pixels(path: str, reason: str) -> ValueError:
+    return ValueError(f"{path}: the image's header claims more pixels than OpenCV decodes "
+                      f"({reason}); expected an image of at most {max_image_pixels()} pixels "
+                      "(2^30 unless OPENCV_IO_MAX_IMAGE_PIXELS says otherwise)")
+
+
+def max_image_pixels() -> int:
+    """The most pixels OpenCV decodes in one image (``CV_IO_MAX_IMAGE_PIXELS``): the
+    environment's ``OPENCV_IO_MAX_IMAGE_PIXELS``, else 2^30."""
+    try:
+        return int(os.environ.get("OPENCV_IO_MAX_IMAGE_PIXELS", 1 << 30))
+    except ValueError:
+        return 1 << 30
+
+
+def header_size(path: str) -> Optional[DecodedSize]:
+    """The size ``path`` decodes to, from its header (:func:`decoded_size`; None if the
+    header does not tell).
+
+    Raises
+    ------
+    ValueError
+        Naming ``path``: the header claims more pixels than OpenCV decodes (as
+        :func:`decode_image` would say, without decoding).
+    """
+    size = decoded_size(path)
+    if size is not None and size.height * size.width > max_image_pixels():
+        raise _too_many_pixels(path, f"the header says {size.width}x{size.height}")
+    return size
+
+
+def check_image_fits(path: str, copies: int = 1, what: str = "") -> Optional[DecodedSize]:
+    """The size ``path`` decodes to, from its header (:func:`header_size`; None if not
+    told), once ``copies`` arrays of that size are known to fit the memory budget.
+
+    Raises
+    ------
+    ValueError
+        The header claims more pixels than OpenCV decodes (:func:`header_size`).
+    MemoryError
+        Naming ``path``, the size its header claims (times ``copies``, described by
+        ``what``) and the budget (:func:`liff._budget.check_fits`).
+    """
+    size = header_size(path)
+    if size is not None:
+        check_fits(path, copies * size.nbytes, f"{size.describe()}{what}")
+    return size
+
+
+def read_image(path: PathLike, copies: int = 1) -> np.ndarray:
     """Reads an image as stored (``cv2.IMREAD_UNCHANGED``: 16 bits and alpha survive).
+
+    Parameters
+    ----------
+    path : path
+    copies : int
+        Arrays of the image's size the caller will hold at once (2 for a light field
+        rearranged from the image): checked against the memory budget, from the
+        header, before decoding.
 
     Returns
     -------
@@ -68,12 +125,14 @@ def read_image(path: PathLike) -> np.ndarray:
         claims more pixels than OpenCV decodes, ...), or it decodes to a dtype liff does
         not accept (e.g. a signed-integer TIFF).
     MemoryError
-        If decoding it runs out of memory (:func:`decode_image`).
+        If its header claims more than the memory budget leaves (:func:`check_image_fits`)
+        or decoding it runs out of memory (:func:`decode_image`).
     """
     path = os.fspath(path)
     refuse_special(path, "an image")
     if not os.path.isfile(path):
         raise ValueError(f"{path}: no such file; expected an image")
+    check_image_fits(path, copies, f", {copies} times" if copies > 1 else "")
     image = decode_image(path, cv2.IMREAD_UNCHANGED)
     if image is None:
         raise ValueError(f"{path}: unreadable image; expected a format OpenCV decodes "
@@ -84,8 +143,6 @@ def read_image(path: PathLike) -> np.ndarray:
     if image.ndim == 3 and image.shape[2] == 4 and _is_grey_alpha_png(path):
         image = np.ascontiguousarray(image[:, :, [0, 3]])
     return image
-
-
 
 
 def as_image(array: np.ndarray) -> np.ndarray:

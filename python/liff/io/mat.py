@@ -22,10 +22,13 @@ returns the axes reversed, (c, u, v, s, t), which is undone here.
 
 from __future__ import annotations
 
+import os
 from typing import Optional
 
 import numpy as np
 
+from .._budget import check_fits, over_budget, room_bytes
+from .hdf5 import check_dataset_fits
 from ._shared import (LightFieldFile, PathLike, check_disparity, optional_module, pick_key,
                       rgb_light_field, stored_file)
 
@@ -102,6 +105,7 @@ def _read_v5(path: str, key: Optional[str], scipy_io):
     files); v4 files, plain arrays, straight to SciPy."""
     from . import _matv5
 
+    check_fits(path, os.path.getsize(path), "the file, read whole")
     with open(path, "rb") as f:
         data = f.read()
     version4 = 0 in data[:4]  # as scipy's matfile_version tells v4 from v5
@@ -118,11 +122,15 @@ def _read_v5(path: str, key: Optional[str], scipy_io):
     names = sorted(name for name, _, _ in variables)
     candidates = [name for name, shape, kind in variables if len(shape) in (4, 5) or kind == "struct"]
     key = pick_key(path, names, key, LF_VARIABLE, candidates, "variable")
+    room, origin = room_bytes()
     try:
         if version4:
             value = scipy_io.loadmat(path, variable_names=[key])[key]
         else:
-            value = _matv5.loadmat_checked(scipy_io, data, key)
+            value = _matv5.loadmat_checked(scipy_io, data, key, room)
+    except _matv5.TooLarge as e:
+        raise over_budget(f"{path}[{key!r}]", e.claimed, "reading the variable (at least)",
+                          room, origin) from None
     except _matv5.Damaged as e:
         raise ValueError(f"{path}[{key!r}]: not read ({e}); expected a numeric light field, or "
                          f"a struct of numeric, char, cell and struct arrays") from None
@@ -164,7 +172,7 @@ def _read_v73(path: str, key: Optional[str]):
                 node, key = node[LF_VARIABLE], f"{key}.{LF_VARIABLE}"
             array = _read_matlab_array(path, key, node, h5py)
     except Exception as e:  # h5py raises OSError, KeyError, ValueError, ... on damaged files
-        if isinstance(e, ValueError) and str(e).startswith(path):  # liff's own, naming the file
+        if isinstance(e, (ValueError, MemoryError)) and str(e).startswith(path):  # liff's own
             raise
         raise _unreadable(path, "HDF5 (v7.3) content", e) from None
     return array, disparity, key, names
@@ -184,6 +192,7 @@ def _read_matlab_array(path: str, key: str, node, h5py) -> np.ndarray:
     if kind is not None and kind not in MATLAB_CLASSES:
         raise ValueError(f"{path}[{key!r}]: MATLAB class {kind}; expected one of "
                          f"{', '.join(MATLAB_CLASSES)}")
+    check_dataset_fits(f"{path}[{key!r}]", node)
     try:
         array = node[()]
     except MemoryError:

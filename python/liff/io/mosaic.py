@@ -41,7 +41,7 @@ def read_mosaic(path: PathLike, grid=None) -> LightFieldFile:
     if grid is None:  # the pixels cannot tell it
         raise ValueError(f"{path}: no grid given for a mosaic; expected grid=(T, S)")
     T, S = grid_size(grid, path)
-    image = read_image(path)
+    image = read_image(path, copies=2)  # the image and the light field rearranged from it
     height, width = image.shape[:2]
     if height % T or width % S:
         raise ValueError(f"{path}: image is {width}x{height} (width x height); expected a "

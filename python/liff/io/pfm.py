@@ -8,13 +8,21 @@ bottom-up. :func:`read_pfm` returns rows top-down, as every image in liff.
 from __future__ import annotations
 
 import os
-from typing import Union
+import re
+from typing import List, Tuple, Union
 
 import numpy as np
 
+from .._budget import check_fits
 from .._paths import refuse_special
 
 PathLike = Union[str, os.PathLike]
+
+#: bytes the header may take at the most, whitespace included (a header padded past them
+#: is refused rather than scanned)
+HEADER_BYTES = 4096
+#: the header: four whitespace-separated tokens, then the one whitespace byte ending it
+HEADER = re.compile(rb"\s*(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s")
 
 
 def read_pfm(path: PathLike) -> np.ndarray:
@@ -28,27 +36,50 @@ def read_pfm(path: PathLike) -> np.ndarray:
     Raises
     ------
     ValueError
-        If the file is not a well-formed PFM (names the file and what was wrong).
+        If the file is not a well-formed PFM (names the file and what was wrong),
+        including a header longer than ``HEADER_BYTES``.
+    MemoryError
+        If the header's size does not fit the memory budget (checked before the pixels
+        are read; names the file, the size and the budget).
     """
     path = os.fspath(path)
     refuse_special(path, "a PFM file")
     try:
         with open(path, "rb") as f:
-            data = f.read()
+            head = f.read(HEADER_BYTES + 1)
+            tokens, pos = _header_tokens(path, head)
+            width, height, scale, channels = _header_values(path, tokens)
+            count = width * height * channels
+            # The bytes read and the float32 array made of them, before reading either.
+            check_fits(path, 8 * count, f"a PFM image of {width}x{height}x{channels} float32")
+            f.seek(pos)
+            data = f.read(4 * count)
+            stored = os.fstat(f.fileno()).st_size - pos
     except OSError as e:
         raise ValueError(f"{path}: cannot read ({e.strerror}); expected a PFM file") from None
-    # Header: three whitespace-separated tokens after the magic, then one whitespace byte.
-    tokens, pos = [], 0
-    while len(tokens) < 4:
-        while pos < len(data) and data[pos : pos + 1].isspace():
-            pos += 1
-        start = pos
-        while pos < len(data) and not data[pos : pos + 1].isspace():
-            pos += 1
-        if start == pos:
-            raise ValueError(f"{path}: truncated PFM header; expected 'Pf|PF', width, height, scale")
-        tokens.append(data[start:pos])
-    pos += 1  # the single whitespace byte that ends the header
+    if len(data) < 4 * count:
+        raise ValueError(f"{path}: PFM data holds {max(0, stored)} bytes; expected "
+                         f"{4 * count} for {width}x{height}x{channels} float32")
+    dtype = "<f4" if scale < 0 else ">f4"
+    image = np.frombuffer(data, dtype=dtype, count=count).astype(np.float32)
+    image = image.reshape((height, width, channels) if channels == 3 else (height, width))
+    return np.ascontiguousarray(image[::-1])
+
+
+def _header_tokens(path: str, head: bytes) -> Tuple[List[bytes], int]:
+    """(the header's four tokens: magic, width, height, scale; the offset of the pixels)
+    from the file's first bytes ``head``."""
+    match = HEADER.match(head)
+    if match is None or match.end() > HEADER_BYTES:
+        if len(head) > HEADER_BYTES:
+            raise ValueError(f"{path}: no PFM header in the first {HEADER_BYTES} bytes; expected "
+                             "'Pf|PF', width, height, scale separated by whitespace")
+        raise ValueError(f"{path}: truncated PFM header; expected 'Pf|PF', width, height, scale")
+    return list(match.groups()), match.end()
+
+
+def _header_values(path: str, tokens: List[bytes]) -> Tuple[int, int, float, int]:
+    """(width, height, scale, channels) from the header's tokens, checked."""
     magic = tokens[0]
     if magic not in (b"Pf", b"PF"):
         raise ValueError(f"{path}: not a PFM file (magic {magic[:8]!r}; expected b'Pf' or b'PF')")
@@ -62,15 +93,7 @@ def read_pfm(path: PathLike) -> np.ndarray:
     if width <= 0 or height <= 0 or scale == 0 or not np.isfinite(scale):
         raise ValueError(f"{path}: bad PFM header (width {width}, height {height}, scale "
                          f"{scale}); expected positive sizes and a finite non-zero scale")
-    channels = 3 if magic == b"PF" else 1
-    count = width * height * channels
-    if len(data) - pos < 4 * count:
-        raise ValueError(f"{path}: PFM data holds {len(data) - pos} bytes; expected "
-                         f"{4 * count} for {width}x{height}x{channels} float32")
-    dtype = "<f4" if scale < 0 else ">f4"
-    image = np.frombuffer(data, dtype=dtype, count=count, offset=pos).astype(np.float32)
-    image = image.reshape((height, width, channels) if channels == 3 else (height, width))
-    return np.ascontiguousarray(image[::-1])
+    return width, height, scale, 3 if magic == b"PF" else 1
 
 
 def write_pfm(path: PathLike, image: np.ndarray) -> None:

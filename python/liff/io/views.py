@@ -20,8 +20,10 @@ from typing import Dict, List, Optional, Pattern, Tuple, Union
 
 import numpy as np
 
+from .._budget import array_bytes, check_fits
 from ._shared import (IMAGE_SUFFIXES, LightFieldFile, PathLike, as_image, check_writable,
                       describe_missing, grid_size, read_image, write_image)
+from .images import header_size
 
 # A run of two or more whole numbers joined by "_", the first number at the start of the
 # name or after "_", "-" or ".", the run followed by the end of the name or "_", "-", ".";
@@ -245,9 +247,12 @@ def read_views(folder: PathLike, grid=None, pattern: Union[str, Pattern, None] =
     T, S, first, views = _arrange(folder, _find_views(folder, regex, grid, linear), grid, linear)
     complete = len(views) == T * S
 
+    _check_light_field_fits(folder, (T, S), views, complete)
     light_field: Optional[np.ndarray] = None
     for (t, s), name in sorted(views.items()):
         path = os.path.join(folder, name)
+        if light_field is not None:
+            _check_view_not_larger(path, reference, first_name)
         image = read_image(path)
         if light_field is None:
             reference, first_name = image, name
@@ -265,6 +270,30 @@ def read_views(folder: PathLike, grid=None, pattern: Union[str, Pattern, None] =
     metadata = {"grid": (T, S), "first_index": first, "files": files, "missing": missing,
                 "added_alpha": add_alpha}
     return LightFieldFile(light_field, "views", metadata, None, folder)
+
+
+def _check_light_field_fits(folder: str, grid: Tuple[int, int],
+                            views: Dict[Tuple[int, int], str], complete: bool) -> None:
+    """Refuses, before any view is decoded, a light field of ``grid`` views whose first
+    view's header says the whole does not fit the memory budget (MemoryError naming the
+    folder, the size claimed and the budget)."""
+    first = os.path.join(folder, views[min(views)])
+    size = header_size(first)
+    if size is not None:
+        channels = size.channels + (not complete)  # an incomplete set gains an alpha channel
+        claimed = array_bytes(grid + (size.height, size.width, channels), size.itemsize)
+        check_fits(folder, claimed, f"a light field of {grid[0]}x{grid[1]} views like "
+                   f"{views[min(views)]} ({size.describe()})")
+
+
+def _check_view_not_larger(path: str, reference: np.ndarray, first_name: str) -> None:
+    """Refuses, before decoding it, a view whose header gives it more pixels than the
+    first view (``reference``) has (ValueError naming the view); a smaller one is
+    decoded and refused with what it holds."""
+    size = header_size(path)
+    if size is not None and size.height * size.width > reference.shape[0] * reference.shape[1]:
+        raise ValueError(f"{path}: view is {size.width}x{size.height} (its header); expected "
+                         f"{_describe(reference)} like {first_name}")
 
 
 def _allocate(grid: Tuple[int, int], image: np.ndarray, complete: bool):

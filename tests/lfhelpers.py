@@ -20,6 +20,17 @@ import liff
 from liff import synthetic
 
 
+def assert_no_descriptors(desc, dtype=np.float32) -> None:
+    """Descriptors of no features as the installed cv2.SIFT returns them: None with
+    OpenCV 4, an empty (0, 128) array with OpenCV 5 (probed here, independently of
+    liff's own probe)."""
+    _, sift = cv2.SIFT.create().detectAndCompute(np.zeros((32, 32), np.uint8), None)
+    if sift is None:
+        assert desc is None
+    else:
+        assert isinstance(desc, np.ndarray) and desc.shape == (0, 128) and desc.dtype == dtype
+
+
 def kp_fields(k: cv2.KeyPoint) -> tuple:
     """Every field of a keypoint, for exact comparisons."""
     return (k.pt[0], k.pt[1], k.size, k.angle, k.response, k.octave, k.class_id)

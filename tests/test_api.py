@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import liff
+import lfhelpers
 from lfhelpers import assert_same_keypoints, kp_fields
 
 DEFAULTS = dict(
@@ -122,13 +123,6 @@ def test_return_types(detector, blob_lf):
     assert_same_keypoints(kps, kps2)
 
 
-def test_nothing_found_gives_empty_tuple_and_none(detector):
-    flat = np.full((3, 3, 48, 48), 0.5)
-    assert detector.detect(flat) == ()
-    assert detector.detectAndCompute(flat) == ((), None)
-    assert detector.compute(flat, []) == ((), None)
-
-
 def test_descriptor_type_uint8_matches_float(blob_lf):
     k32, d32 = liff.LiFF.create().detectAndCompute(blob_lf)
     k8, d8 = liff.LiFF.create(descriptorType=cv2.CV_8U).detectAndCompute(blob_lf)
@@ -178,15 +172,44 @@ def test_compute_keeps_the_given_order(detector, blob_lf):
     np.testing.assert_array_equal(out_d, desc[perm])
 
 
-def test_compute_drops_keypoints_the_pyramid_lacks(detector, blob_lf):
+def test_compute_keeps_every_keypoint_in_place_as_cv2_sift(detector, blob_lf):
+    """cv2.SIFT.compute keeps keypoints it cannot describe, with all-zero descriptors
+    (checked here on the installed cv2), so arrays aligned with them stay aligned."""
     kps = detector.detect(blob_lf)
     good = kps[0]
     bad_octave = cv2.KeyPoint(good.pt[0], good.pt[1], good.size, good.angle, 0, 40 | (1 << 8), 0)
     nan_pt = cv2.KeyPoint(float("nan"), 10.0, good.size, good.angle, 0, good.octave, 0)
     zero_size = cv2.KeyPoint(10.0, 10.0, 0.0, 0.0, 0, good.octave, 0)
-    out_k, out_d = detector.compute(blob_lf, [bad_octave, good, nan_pt, zero_size])
-    assert [kp_fields(k) for k in out_k] == [kp_fields(good)]
-    assert out_d.shape == (1, 128)
+    negative_size = cv2.KeyPoint(10.0, 10.0, -1.0, 0.0, 0, good.octave, 0)
+    nan_angle = cv2.KeyPoint(good.pt[0], good.pt[1], good.size, float("nan"), 0, good.octave, 0)
+    given = [bad_octave, good, nan_pt, zero_size, negative_size, nan_angle]
+    out_k, out_d = detector.compute(blob_lf, given)
+    np.testing.assert_array_equal([kp_fields(k) for k in out_k], [kp_fields(k) for k in given])
+    assert out_d.shape == (len(given), 128)
+    _, alone = detector.compute(blob_lf, [good])
+    np.testing.assert_array_equal(out_d[1], alone[0])
+    assert np.linalg.norm(out_d[1]) > 0
+    assert not out_d[[0, 2, 3, 4, 5]].any()
+    # cv2.SIFT on the centre view does the same with the hand-made ones.
+    view = (np.clip(blob_lf[blob_lf.shape[0] // 2, blob_lf.shape[1] // 2], 0, 1) * 255).astype(np.uint8)
+    sift_k, sift_d = cv2.SIFT.create().compute(view, [cv2.KeyPoint(20, 20, 4), nan_pt, zero_size,
+                                                      negative_size])
+    assert len(sift_k) == 4 and not sift_d[1:].any()
+
+
+def test_no_features_give_the_installed_cv2s_empty_descriptors(detector):
+    """OpenCV 5's cv2.SIFT returns an empty (0, 128) array when it finds nothing, 4.x
+    None: liff follows the installed cv2, in detectAndCompute and compute, and keeps the
+    descriptor type."""
+    blank = np.full((3, 3, 48, 48), 0.5)
+    assert detector.detect(blank) == ()
+    kps, desc = detector.detectAndCompute(blank, None)
+    assert kps == ()
+    lfhelpers.assert_no_descriptors(desc)
+    assert detector.compute(blank, [])[0] == ()
+    lfhelpers.assert_no_descriptors(detector.compute(blank, [])[1])
+    as_bytes = liff.LiFF.create(descriptorType=cv2.CV_8U)
+    lfhelpers.assert_no_descriptors(as_bytes.detectAndCompute(blank, None)[1], np.uint8)
 
 
 def test_compute_rejects_non_keypoints(detector, blob_lf):
@@ -220,9 +243,11 @@ def test_compute_far_and_huge_keypoints_do_not_crash():
            cv2.KeyPoint(24, 24, 4)]
     out, desc = liff.LiFF.create().compute(img, kps)
     # Out-of-image keypoints are described (as cv2.SIFT does, with what little of their
-    # window falls inside); coordinates or sizes of 1e6 and more are dropped.
-    assert [k.pt for k in out] == [(1e5, -1e5), (24.0, 24.0)]
-    assert desc.shape == (2, 128)
+    # window falls inside); coordinates or sizes of 1e6 and more keep their place with
+    # an all-zero descriptor.
+    assert [k.pt for k in out] == [k.pt for k in kps]
+    assert desc.shape == (4, 128)
+    assert not desc[1:3].any() and desc[3].any()
 
 
 def test_default_slope_count_is_bounded():

@@ -83,24 +83,28 @@ std::vector<std::vector<cv::KeyPoint>> searchSlices(const Call& call, const Slic
 
 }  // namespace
 
-// compute(): describes the given keypoints, each on the slice nearest its slope, and
-// drops those whose packed octave/layer this light field's pyramid lacks (as
-// cv::Feature2D does). Each needed scale space is built once, `batch` at a time.
-void describeProvidedKeypoints(const Call& call, std::vector<cv::KeyPoint>& keypoints,
+// compute(): describes the given keypoints, each on the slice nearest its slope; those
+// that cannot be described keep their place with an all-zero descriptor (as cv::SIFT).
+// Each needed scale space is built once, `batch` at a time.
+void describeProvidedKeypoints(const Call& call, const std::vector<cv::KeyPoint>& keypoints,
                                bool wantDescriptors, cv::Mat& descriptors) {
-  std::vector<cv::KeyPoint> kept;
-  for (const cv::KeyPoint& kp : keypoints) {
+  if (!wantDescriptors) return;
+  descriptors.create(int(keypoints.size()), kDescriptorSize, call.parameters.descriptorType);
+  descriptors.setTo(0);
+  std::vector<cv::KeyPoint> kept;  // the describable keypoints, and their rows
+  std::vector<int> keptRows;
+  for (size_t j = 0; j < keypoints.size(); ++j) {
+    const cv::KeyPoint& kp = keypoints[j];
     int o, layer;
     const bool usable = std::abs(kp.pt.x) < kMaxCoordinate && std::abs(kp.pt.y) < kMaxCoordinate &&
                         kp.size > 0 && kp.size < kMaxCoordinate && std::isfinite(kp.angle);
     if (call.settings.octaves >= 1 && usable &&
         unpackOctave(kp, call.settings.octaves, call.settings.layers, call.settings.firstOctave, o,
-                     layer))
+                     layer)) {
       kept.push_back(kp);
+      keptRows.push_back(int(j));
+    }
   }
-  keypoints = kept;
-  if (!wantDescriptors) return;
-  descriptors.create(int(kept.size()), kDescriptorSize, call.parameters.descriptorType);
   const std::vector<int> sliceOf = nearestSlices(call.plan, kept);
   std::vector<int> needed(sliceOf);
   std::sort(needed.begin(), needed.end());
@@ -116,7 +120,7 @@ void describeProvidedKeypoints(const Call& call, std::vector<cv::KeyPoint>& keyp
       if (window.holds(sliceOf[j])) {
         group.push_back(kept[j]);
         groupSlice.push_back(sliceOf[j]);
-        rows.push_back(int(j));
+        rows.push_back(keptRows[j]);
       }
     cv::Mat groupDescriptors(int(group.size()), kDescriptorSize, call.parameters.descriptorType);
     describe(group, groupSlice, window, call.parameters.rootSift, groupDescriptors);

@@ -26,9 +26,12 @@ struct Call {
 };
 
 /// compute(): describes `keypoints`, each on the plan's slice nearest its slope, and
-/// drops those whose packed octave/layer this light field's pyramid lacks (as
-/// cv::Feature2D does). Each needed scale space is built once, `batch` at a time.
-void describeProvidedKeypoints(const Call& call, std::vector<cv::KeyPoint>& keypoints,
+/// keeps every keypoint in its place, as cv::SIFT does: one that cannot be described
+/// (a packed octave/layer this light field's pyramid lacks, a non-finite or huge
+/// position, a size <= 0, a non-finite angle) gets an all-zero descriptor, so the
+/// caller's arrays stay aligned with the keypoints. Each needed scale space is built
+/// once, `batch` at a time.
+void describeProvidedKeypoints(const Call& call, const std::vector<cv::KeyPoint>& keypoints,
                                bool wantDescriptors, cv::Mat& descriptors);
 
 /// Detection over the plan's searched slices: a window sliding along the slopes holds

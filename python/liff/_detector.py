@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import inspect
 import math
 import os
@@ -21,6 +22,15 @@ RANGE_END_SHARE = 0.05
 SMALL_REACH = 3.0
 """Below this largest automatic slope (pixels per view step), finding no feature is
 worth a warning: scenes often reach beyond it (camera arrays, gantries)."""
+
+
+@functools.lru_cache(maxsize=None)
+def _cv2_returns_empty_descriptors() -> bool:
+    """Whether the installed cv2 returns an empty (0, 128) array, rather than None, as
+    the descriptors of an image with no features: OpenCV 5 does, 4.x returns None.
+    Probed once on cv2.SIFT, so liff follows whichever cv2 the caller has."""
+    _, descriptors = cv2.SIFT.create().detectAndCompute(np.zeros((16, 16), np.uint8), None)
+    return descriptors is not None
 
 
 class Parameter(NamedTuple):
@@ -218,17 +228,22 @@ class LiFF(_core.LiFF):
     def compute(self, lf, keypoints, descriptors=None) -> Tuple[KeyPoints, Optional[np.ndarray]]:
         """Describes the given keypoints, each on the focal slice nearest its slope.
 
-        Keypoints whose packed octave/layer the light field's pyramid lacks are removed
-        (cv2.Feature2D behaviour), so the returned tuple may be shorter.
+        Every keypoint keeps its place, as with ``cv2.SIFT.compute``: one that cannot
+        be described (a packed octave/layer the light field's pyramid lacks, a NaN or
+        huge position, ``size <= 0``, a NaN angle) gets an all-zero descriptor, so
+        arrays aligned with the keypoints stay aligned.
 
         Returns
         -------
         keypoints : tuple of cv2.KeyPoint
-        descriptors : ndarray, shape (N, 128), float32 (or uint8), or None if N == 0
+            The keypoints given, in their order.
+        descriptors : ndarray, shape (N, 128), float32 (or uint8)
+            For N == 0, what the installed cv2 returns: an empty (0, 128) array with
+            OpenCV 5, None with OpenCV 4.
         """
         rows = keypoints_to_rows(keypoints)
         rows, desc = self._run(_as_light_field(lf), None, rows, True)
-        return rows_to_keypoints(rows), (desc if len(rows) else None)
+        return rows_to_keypoints(rows), self._descriptors_out(desc, len(rows))
 
     def detectAndCompute(
         self, lf, mask=None, descriptors=None, useProvidedKeypoints: bool = False
@@ -243,15 +258,27 @@ class LiFF(_core.LiFF):
         Returns
         -------
         keypoints : tuple of cv2.KeyPoint
-        descriptors : ndarray, shape (N, 128), float32 (or uint8), or None if N == 0
-            Exactly as ``cv2.SIFT.detectAndCompute``.
+        descriptors : ndarray, shape (N, 128), float32 (or uint8)
+            For N == 0, as ``cv2.SIFT.detectAndCompute`` of the installed cv2: an
+            empty (0, 128) array with OpenCV 5, None with OpenCV 4.
         """
         if useProvidedKeypoints:
             raise ValueError("useProvidedKeypoints=True: call compute(lf, keypoints) instead")
         array = _as_light_field(lf)
         rows, desc = self._run(array, _as_mask(mask), None, True)
         self._check_range_ends(array, rows, mask is not None)
-        return rows_to_keypoints(rows), (desc if len(rows) else None)
+        return rows_to_keypoints(rows), self._descriptors_out(desc, len(rows))
+
+    def _descriptors_out(self, descriptors: Optional[np.ndarray], count: int
+                         ) -> Optional[np.ndarray]:
+        """The descriptors as cv2.SIFT would return them; with none, the installed cv2's
+        empty value (:func:`_cv2_returns_empty_descriptors`)."""
+        if count:
+            return descriptors
+        if not _cv2_returns_empty_descriptors():
+            return None
+        dtype = np.uint8 if self.descriptorType() == cv2.CV_8U else np.float32
+        return np.empty((0, self.descriptorSize()), dtype)
 
     def _check_range_ends(self, lf: np.ndarray, rows: np.ndarray, masked: bool = False) -> None:
         """The range warnings: :meth:`_check_pinned_ends`; with an automatic range and no

@@ -134,3 +134,56 @@ def test_keypoint_convert_and_pickle_round_trip(blob_lf):
     rebuilt = [cv2.KeyPoint(*k.pt, k.size, k.angle, k.response, k.octave, k.class_id) for k in kps]
     np.testing.assert_array_equal(liff.keypoint_slopes(rebuilt), liff.keypoint_slopes(kps))
     assert pickle.loads(pickle.dumps(liff.keypoint_slopes(kps))).shape == (len(kps),)
+
+
+# --- Lists of inputs, as cv2.SIFT.detect([img1, img2]) takes them ---------------------
+
+def _list_inputs():
+    rng = np.random.default_rng(3)
+    image = cv2.GaussianBlur((rng.random((64, 80)) * 255).astype(np.uint8), (0, 0), 1.5)
+    colour = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)[::-1].copy()  # another image, BGR
+    light_field = textured_lf((3, 3, 48, 56), slope=1, seed=4)
+    return [image, colour, light_field]
+
+
+def test_a_list_of_inputs_gives_one_result_per_input_as_cv2_sift():
+    detector = liff.LiFF.create()
+    inputs = _list_inputs()
+    # cv2.SIFT's own list semantics, on the installed cv2: one tuple per image.
+    sift = cv2.SIFT.create().detect(inputs[:2])
+    assert isinstance(sift, tuple) and len(sift) == 2 and all(isinstance(k, tuple) for k in sift)
+    found = detector.detect(inputs)
+    assert isinstance(found, tuple) and len(found) == len(inputs)
+    for item, keypoints in zip(inputs, found):
+        assert [k.pt for k in keypoints] == [k.pt for k in detector.detect(item)]
+    assert sum(len(k) for k in found) > 0
+    assert [[k.pt for k in ks] for ks in detector.detect(tuple(inputs))] == \
+        [[k.pt for k in ks] for ks in found]
+    assert detector.detect([]) == ()
+    keypoints, descriptors = detector.compute(inputs, list(found))
+    assert [len(k) for k in keypoints] == [len(k) for k in found]
+    for item, k, d in zip(inputs, found, descriptors):
+        np.testing.assert_array_equal(d, detector.compute(item, k)[1])
+
+
+def test_a_list_of_inputs_takes_a_list_of_masks():
+    detector = liff.LiFF.create()
+    inputs = _list_inputs()[:2]
+    none = np.zeros(inputs[0].shape[:2], np.uint8)
+    found = detector.detect(inputs, [none, None])
+    assert found[0] == () and len(found[1]) == len(detector.detect(inputs[1]))
+    assert detector.detect(inputs, masks=[none, none]) == ((), ())
+    with pytest.raises(ValueError, match="expected a list of 2"):
+        detector.detect(inputs, [none])
+    with pytest.raises(ValueError, match="expected a list of 2"):
+        detector.detect(inputs, none)
+
+
+def test_detect_and_compute_refuses_a_list_as_cv2_sift_does():
+    inputs = _list_inputs()[:2]
+    with pytest.raises(cv2.error):
+        cv2.SIFT.create().detectAndCompute(inputs, None)
+    with pytest.raises(TypeError, match="not a list of 2 arrays"):
+        liff.LiFF.create().detectAndCompute(inputs, None)
+    with pytest.raises(TypeError, match="list of keypoint lists"):
+        liff.LiFF.create().compute(inputs, None)

@@ -64,6 +64,24 @@ def _parameters_docstring() -> str:
     return "\n".join("    " + line if line else line for line in lines)
 
 
+def _is_list_of_inputs(lf) -> bool:
+    """cv2's list semantics: a list or tuple whose items are all arrays (or cv2.UMat)
+    is several inputs, each a light field or an image, detected on its own (as
+    ``cv2.SIFT.detect([img1, img2])``); nested Python lists stay one array."""
+    return isinstance(lf, (list, tuple)) and all(
+        isinstance(item, (np.ndarray, cv2.UMat)) for item in lf)
+
+
+def _per_input(items, count: int, what: str) -> list:
+    """``items`` (None, or a list of one per input) as a list of ``count`` items."""
+    if items is None:
+        return [None] * count
+    if not isinstance(items, (list, tuple)) or len(items) != count:
+        got = f"{len(items)} items" if isinstance(items, (list, tuple)) else type(items).__name__
+        raise ValueError(f"{what}: expected a list of {count} (one per input), got {got}")
+    return list(items)
+
+
 def _as_light_field(lf) -> np.ndarray:
     """C-contiguous, native-byte-order view (or copy) of ``lf``; never modifies it.
     TypeError for None (what a failed read such as cv2.imread returns)."""
@@ -203,23 +221,38 @@ class LiFF(_core.LiFF):
             return self._slopes_for_light_field(_as_light_field(args[0]))
         return super().slopesFor(*args)
 
-    def detect(self, lf, mask=None) -> KeyPoints:
+    def detect(self, lf, mask=None, masks=None) -> Union[KeyPoints, Tuple[KeyPoints, ...]]:
         """Detects keypoints.
 
         Parameters
         ----------
-        lf : array_like, shape (T, S, V, U[, C]) or (V, U[, C])
-            The light field (see the class notes).
+        lf : array_like, shape (T, S, V, U[, C]) or (V, U[, C]); or a list of them
+            The light field (see the class notes). A list or tuple of arrays is several
+            inputs, as ``cv2.SIFT.detect([img1, img2])`` takes them: each is detected on
+            its own, and a tuple of keypoint tuples comes back, one per input.
         mask : ndarray of uint8 or bool, shape (V, U), optional
-            Keep keypoints whose centre-view pixel is non-zero.
+            Keep keypoints whose centre-view pixel is non-zero. For a list of inputs, a
+            list of masks (None items allowed), also accepted as ``masks`` (cv2's name).
 
         Returns
         -------
-        keypoints : tuple of cv2.KeyPoint
+        keypoints : tuple of cv2.KeyPoint (a tuple of them per input for a list)
             ``pt`` in centre-view pixels, ``size`` a diameter, ``angle`` in degrees,
             ``response`` the |DoG| contrast, ``octave`` packed as cv2.SIFT, slope in
             ``class_id`` (see :func:`keypoint_slopes`).
+
+        Raises
+        ------
+        ValueError
+            For a list of masks whose length differs from the inputs'.
         """
+        if masks is not None:
+            if mask is not None:
+                raise TypeError("detect(): give mask or masks, not both")
+            mask = masks
+        if _is_list_of_inputs(lf):
+            per_input = _per_input(mask, len(lf), "masks")
+            return tuple(self.detect(item, m) for item, m in zip(lf, per_input))
         array = _as_light_field(lf)
         rows, _ = self._run(array, _as_mask(mask), None, False)
         self._check_range_ends(array, rows, mask is not None)
@@ -241,6 +274,13 @@ class LiFF(_core.LiFF):
             For N == 0, what the installed cv2 returns: an empty (0, 128) array with
             OpenCV 5, None with OpenCV 4.
         """
+        if _is_list_of_inputs(lf):
+            per_input = _per_input(keypoints, len(lf), "keypoint lists")
+            if len(lf) and any(k is None for k in per_input):
+                raise TypeError("compute() of a list of inputs takes a list of keypoint "
+                                "lists, one per input (as cv2.SIFT.compute)")
+            results = [self.compute(item, k) for item, k in zip(lf, per_input)]
+            return tuple(k for k, _ in results), tuple(d for _, d in results)
         rows = keypoints_to_rows(keypoints)
         rows, desc = self._run(_as_light_field(lf), None, rows, True)
         return rows_to_keypoints(rows), self._descriptors_out(desc, len(rows))
@@ -264,6 +304,10 @@ class LiFF(_core.LiFF):
         """
         if useProvidedKeypoints:
             raise ValueError("useProvidedKeypoints=True: call compute(lf, keypoints) instead")
+        if _is_list_of_inputs(lf):
+            raise TypeError(f"detectAndCompute() takes one light field or image, not a list "
+                            f"of {len(lf)} arrays (nor does cv2.SIFT.detectAndCompute); call "
+                            "it on each, or detect() and compute() with the list")
         array = _as_light_field(lf)
         rows, desc = self._run(array, _as_mask(mask), None, True)
         self._check_range_ends(array, rows, mask is not None)

@@ -1,5 +1,7 @@
 """cv2.FileStorage persistence: save/read/write round trips and validation on read."""
 
+import json
+import math
 import pathlib
 import subprocess
 import sys
@@ -56,6 +58,37 @@ def test_defaults_round_trip_overwrites_everything(tmp_path, ext):
     d = liff.LiFF.create(**CUSTOM)
     d.read(path)
     assert params(d) == params(liff.LiFF.create())
+
+
+@pytest.mark.parametrize("first, last", [(-math.inf, math.inf), (-1.5, math.inf),
+                                         (-math.inf, 2.0), (-0.75, 1.25)])
+def test_json_files_are_json_with_open_slope_range_ends(tmp_path, first, last):
+    """JSON has no infinity: an open end of the slope range (the automatic range's
+    default) is written as the string "inf" / "-inf", so Python's json reads the file,
+    and read() takes it back (from a file written by hand too)."""
+    path = tmp_path / "p.json"
+    liff.LiFF.create(firstSlope=first, lastSlope=last).save(str(path))
+    values = json.loads(path.read_text())
+    as_json = {-math.inf: "-inf", math.inf: "inf"}
+    assert values["firstSlope"] == as_json.get(first, first)
+    assert values["lastSlope"] == as_json.get(last, last)
+    d = liff.LiFF.create(firstSlope=0.1, lastSlope=0.2)
+    d.read(str(path))
+    assert (d.getFirstSlope(), d.getLastSlope()) == (first, last)
+    values["nfeatures"] = 5
+    path.write_text(json.dumps(values))
+    d.read(str(path))
+    assert (d.getFirstSlope(), d.getLastSlope(), d.getNFeatures()) == (first, last, 5)
+
+
+def test_an_infinity_string_is_only_a_slope_range_end(tmp_path, custom):
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps({"sigma": "inf"}))
+    with pytest.raises(ValueError, match="sigma"):
+        custom.read(str(path))
+    path.write_text(json.dumps({"firstSlope": "infinite"}))
+    with pytest.raises(ValueError, match="firstSlope"):
+        custom.read(str(path))
 
 
 @pytest.mark.parametrize("ext", ["yml", "xml", "json"])

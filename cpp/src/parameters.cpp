@@ -30,8 +30,19 @@ std::string exact(double v) {
   return text;
 }
 
+// JSON has no infinity (OpenCV's JSON writer would write YAML's .Inf, which no JSON
+// parser reads): write() puts an infinite value in a JSON file as one of these strings,
+// and read() takes them back in any format.
+constexpr const char* kPlusInfinity = "inf";
+constexpr const char* kMinusInfinity = "-inf";
+
 // A FileStorage entry as a number, or an error naming the key.
 double number(const cv::FileNode& node, const char* key) {
+  if (node.isString()) {
+    const std::string text = node.string();
+    if (text == kPlusInfinity) return HUGE_VAL;
+    if (text == kMinusInfinity) return -HUGE_VAL;
+  }
   if (!node.isInt() && !node.isReal())
     CV_Error(
         cv::Error::StsBadArg,
@@ -68,7 +79,12 @@ void readEntry(const cv::FileNode& fn, const char* key, bool& value) {
 }
 
 void writeEntry(cv::FileStorage& fs, const char* key, int value) { fs << key << value; }
-void writeEntry(cv::FileStorage& fs, const char* key, double value) { fs << key << value; }
+void writeEntry(cv::FileStorage& fs, const char* key, double value) {
+  if (std::isinf(value) && (fs.getFormat() & cv::FileStorage::FORMAT_MASK) == cv::FileStorage::FORMAT_JSON)
+    fs << key << (value > 0 ? kPlusInfinity : kMinusInfinity);
+  else
+    fs << key << value;
+}
 // FileStorage has no boolean: 0 or 1, as OpenCV's own algorithms write them.
 void writeEntry(cv::FileStorage& fs, const char* key, bool value) { fs << key << int(value); }
 

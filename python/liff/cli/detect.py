@@ -50,6 +50,13 @@ def add_parser(sub) -> None:
                    help="write the run's manifest (input, output, status, features, slope "
                         "range, seconds, CPU seconds, error, worker) here (default for several inputs: "
                         "OUT/manifest-<UTC time>.csv)")
+    p.add_argument("--hloc", default=None, metavar="FEATS.h5",
+                   help="also add every output's features to this hloc features file (a group "
+                        "per light field named OUTPUT-NAME.png; pip install 'liff[hdf5]'), for "
+                        "hloc's matchers, triangulation and reconstruction")
+    p.add_argument("--hloc-images", default=None, metavar="DIR",
+                   help="with --hloc: write each centre view here under its group's name (the "
+                        "image folder hloc is given)")
     mask.add_mask_option(p)
     p.add_argument("--overwrite", action="store_true",
                    help="redo outputs that exist even if made with the same settings, and "
@@ -294,6 +301,12 @@ def run(args: argparse.Namespace) -> int:
     manifest = manifest_path(args)
     if manifest:
         check_manifest(manifest, args, tasks, kept)
+    common.check_hloc_output(args.hloc, common.protected_inputs(args), "--hloc")
+    if args.hloc_images and not args.hloc:
+        raise ValueError("--hloc-images without --hloc; expected both (the features file and "
+                         "its images)")
+    if args.hloc_images:
+        refuse_inputs([args.hloc_images], common.protected_inputs(args), "--hloc-images")
     for out, reasons in redo.items():
         print(f"redoing {out}, out of date: {'; '.join(reasons)}")
     outcomes = run_tasks(tasks, args)
@@ -310,6 +323,13 @@ def run(args: argparse.Namespace) -> int:
     if manifest:
         batch.write_manifest(manifest, outcomes + kept)
         print(f"manifest: {manifest}")
+    if args.hloc:
+        from ..hloc import add_feature_files
+
+        written = [o.output for o in outcomes + kept if o.status != "failed"]
+        names = add_feature_files(args.hloc, written, args.hloc_images)
+        print(f"hloc: {len(names)} light field(s) -> {args.hloc}"
+              + (f", centre views -> {args.hloc_images}" if args.hloc_images else ""))
     if failed:
         print(f"liff detect: {failed} of {len(tasks)} light field(s) failed", file=sys.stderr)
     return 1 if failed else 0

@@ -159,15 +159,41 @@ def test_match_warns_when_inliers_mean_nothing(poses, tmp_path, capsys):
 
 
 def test_demo_picture_marks_found_and_missed_blobs(tmp_path):
-    from liff.plot import draw_ground_truth, draw_keypoints_by_slope
+    from liff.plot import dot_radius, draw_ground_truth, draw_keypoints_by_slope
 
     picture = draw_keypoints_by_slope(np.full((100, 100), 0.5), [], (-1, 1))
     points, found = np.array([[20, 30], [70, 40], [50, 80]]), np.array([True, False, True])
     draw_ground_truth(picture, points, found)
+    gap = dot_radius(2) + 2
     for (x, y), hit in zip(points, found):
-        assert tuple(picture[2 * y, 2 * x]) == ((255, 255, 255) if hit else (255, 0, 255))
+        if hit:  # a white + whose middle is left open for the feature's dot
+            assert tuple(picture[2 * y, 2 * x + gap + 1]) == (255, 255, 255)
+            assert tuple(picture[2 * y, 2 * x]) == (128, 128, 128)
+        else:
+            assert tuple(picture[2 * y, 2 * x]) == (255, 0, 255)
     magenta_rows = np.where((picture == (255, 0, 255)).all(axis=2).any(axis=1))[0]
     assert magenta_rows.min() < picture.shape[0] / 4  # the legend "x missed 1", at the top
+
+
+def test_the_demo_picture_shows_each_features_slope_colour(tmp_path):
+    """Issue 29: the white + of a found blob covered its feature's slope colour. In the
+    picture `liff demo` writes, the pixel at every feature's centre has the slope colour
+    of a feature there (its own, or one drawn later within the dot's radius)."""
+    from liff.demo import demo_light_field
+    from liff.plot import dot_radius, slope_colours
+
+    assert main(["demo", "--out", str(tmp_path)]) == 0
+    picture = cv2.imread(str(tmp_path / "features.png"))
+    detector = liff.LiFF.create()
+    keypoints, _ = detector.detectAndCompute(demo_light_field()[0])  # what the demo drew
+    used = detector.getSlicesUsed()
+    colours = slope_colours(liff.keypoint_slopes(keypoints), (used[0], used[-1]))
+    centres = np.round(np.array([kp.pt for kp in keypoints]) * 2 + 0.5).astype(int)  # scale 2
+    assert len(keypoints) > 100
+    for centre in centres:
+        near = np.abs(centres - centre).max(axis=1) <= dot_radius(2)
+        pixel = picture[centre[1], centre[0]]
+        assert (colours[near] == pixel).all(axis=1).any(), (centre, pixel)
 
 
 @pytest.mark.parametrize("size", [8, 60, 192, 600, 3000])

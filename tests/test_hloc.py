@@ -1,6 +1,8 @@
 """liff.hloc: features and matches in hloc's HDF5 layout, read back as hloc's readers
 read them (hloc/utils/io.py: get_keypoints, get_matches, find_pair)."""
 
+import re
+
 import cv2
 import numpy as np
 import pytest
@@ -74,3 +76,71 @@ def test_clear_errors(tmp_path, two_views):
         write_matches(tmp_path / "m.h5", "a.png", "b.png", twice, 3)
     with pytest.raises(ValueError, match="queryIdx 5"):
         write_matches(tmp_path / "m.h5", "a.png", "b.png", [cv2.DMatch(5, 0, 0.1)], 3)
+
+
+# --- the command line: liff detect --hloc, liff match --hloc -----------------------------
+
+def hloc_get_keypoints(path, name):
+    """hloc/utils/io.py's get_keypoints."""
+    with h5py.File(str(path), "r", libver="latest") as hfile:
+        return hfile[name]["keypoints"].__array__()
+
+
+def hloc_get_matches(path, name0, name1):
+    """hloc/utils/io.py's get_matches (find_pair without the reversed lookup): (K, 2)
+    index pairs and their scores."""
+    with h5py.File(str(path), "r", libver="latest") as hfile:
+        pair = names_to_pair(name0, name1)
+        matches = hfile[pair]["matches0"].__array__()
+        scores = hfile[pair]["matching_scores0"].__array__()
+    idx = np.where(matches != -1)[0]
+    return np.stack([idx, matches[idx]], -1), scores[idx]
+
+
+def test_the_command_line_writes_hloc_files(tmp_path, capsys):
+    from liff.cli import main
+    from liff.feature_file import load_features
+
+    for i in range(2):
+        assert main(["synth", "disks", "--out", str(tmp_path / "lf" / f"scene{i}.npz"), "--views", "5",
+                     "--size", "96", "128", "--seed", str(i)]) == 0
+    feats, images = tmp_path / "hloc" / "feats-liff.h5", tmp_path / "hloc" / "images"
+    assert main(["detect", str(tmp_path / "lf"), "--out", str(tmp_path / "feats"), "--hloc", str(feats),
+                 "--hloc-images", str(images)]) == 0
+    assert "hloc: 2 light field(s)" in capsys.readouterr().out
+    found = [load_features(tmp_path / "feats" / f"scene{i}.npz") for i in range(2)]
+    for i, features in enumerate(found):
+        name = f"scene{i}.png"
+        kp = hloc_get_keypoints(feats, name)
+        np.testing.assert_allclose(kp, [k.pt for k in features.keypoints], atol=1e-4)
+        image = cv2.imread(str(images / name), cv2.IMREAD_UNCHANGED)
+        assert image.dtype == np.uint8 and image.ndim == 2  # grey 8-bit, as COLMAP reads it
+        with h5py.File(feats, "r") as f:
+            assert list(f[name]["image_size"][()]) == [image.shape[1], image.shape[0]]
+            assert f[name]["descriptors"].shape == (128, len(features.keypoints))
+    matches_file = tmp_path / "hloc" / "matches-liff.h5"
+    assert main(["match", str(tmp_path / "feats" / "scene0.npz"), str(tmp_path / "feats" / "scene1.npz"),
+                 "--hloc", str(matches_file)]) == 0
+    count = int(re.search(r"hloc: (\d+) matches of scene0.png and scene1.png", capsys.readouterr().out)[1])
+    pairs, scores = hloc_get_matches(matches_file, "scene0.png", "scene1.png")
+    assert len(pairs) == count and np.all(scores > 0)
+    assert pairs[:, 1].max() < len(found[1].keypoints)
+    # a re-run adds to the files: the features of a light field are replaced, not repeated
+    assert main(["detect", str(tmp_path / "lf" / "scene0.npz"), "--out", str(tmp_path / "feats" / "scene0.npz"),
+                 "--hloc", str(feats)]) == 0
+    with h5py.File(feats, "r") as f:
+        assert sorted(f) == ["scene0.png", "scene1.png"]
+
+
+def test_the_command_line_refuses_a_foreign_hloc_file(tmp_path, capsys):
+    from liff.cli import main
+
+    lf = tmp_path / "scene.npz"
+    assert main(["synth", "disks", "--out", str(lf), "--views", "3", "--size", "48", "48"]) == 0
+    (tmp_path / "notes.h5").write_text("not hdf5")
+    assert main(["detect", str(lf), "--out", str(tmp_path / "f.npz"), "--hloc", str(tmp_path / "notes.h5")]) == 1
+    assert "is not an HDF5 file" in capsys.readouterr().err and not (tmp_path / "f.npz").exists()
+    assert main(["detect", str(lf), "--out", str(tmp_path / "f.npz"), "--hloc", str(lf)]) == 1
+    assert "--hloc" in capsys.readouterr().err
+    assert main(["detect", str(lf), "--out", str(tmp_path / "f.npz"), "--hloc-images", str(tmp_path)]) == 1
+    assert "--hloc-images without --hloc" in capsys.readouterr().err

@@ -290,6 +290,10 @@ def test_eslf_names():
     for name in ("IMG_5776.eslf.png", "IMG_5776_eslf.png", "a/b_ESLF.PNG", "x.eslf.jpg"):
         assert io.guess_format(name) == "eslf", name
     assert io.guess_format("eslf.png") is None and io.guess_format("selfie.png") is None
+    # what liff synth writes beside an ESLF image is no light field (a folder of them read
+    # it as one, and failed)
+    assert io.guess_format("IMG_5776.eslf.png.truth.json") is None
+    assert io.guess_format("IMG_5776_eslf.txt") is None
 
 
 # ---------------------------------------------------------------- MATLAB .mat

@@ -352,9 +352,10 @@ def synthetic_observations(camera, n_right, n_wrong, sigma_xy, sigma_slope, seed
 
 def test_ransac_scores_in_the_observations_where_far_points_are_noisy():
     # Slope noise is alike for every feature, so a far point's depth is poor (Z^2 / (f b)
-    # times it: 0.2 m at 15 m): COLMAP's 3-D RANSAC (threshold 3% of the median depth)
-    # keeps about half of the right matches here and its pose is 10x worse; scored by
-    # the observations, RANSAC keeps nearly all and no wrong ones.
+    # times it: 0.2 m at 15 m): a 3-D RANSAC (threshold 3% of the median depth) keeps
+    # fewer of the right matches here (36 of 40; COLMAP's kept 37) and its pose is
+    # 2.8x worse (COLMAP's, not the least-squares fit of its inliers, 27x); scored by the
+    # observations, RANSAC keeps all 40 and no wrong ones.
     from liff.pose import _back_project, observation_ransac, ransac_pose
 
     camera = liff.LightFieldCamera(400.0, 0.05, (200.0, 150.0))
@@ -366,7 +367,7 @@ def test_ransac_scores_in_the_observations_where_far_points_are_noisy():
     threshold = 0.03 * np.median(np.concatenate([X1[:, 2], X2[:, 2]]))
     R3, t3, inliers3 = ransac_pose(X1, X2, threshold)
     assert inliers3[:40].sum() < inliers[:40].sum()
-    assert np.linalg.norm(t3 - t_true) > 3 * np.linalg.norm(t - t_true)
+    assert np.linalg.norm(t3 - t_true) > 2 * np.linalg.norm(t - t_true)
     # every match wrong: some motion still agrees with a few, as with random re-pairings
     obs1, obs2, _, _ = synthetic_observations(camera, 0, 300, 0.2, 0.02, seed=4)
     with pytest.raises(liff.PoseEstimationError, match="re-paired at random"):

@@ -168,3 +168,70 @@ def test_schur_solver_reaches_scipys_minimum(loss):
         assert np.abs(points - ours.x).max() < 1e-6
     with pytest.raises(ValueError, match="loss = 'huber'; expected 'linear' or 'cauchy'"):
         _bundle.solve(problem, params, "huber")
+
+
+def _points_with_outliers(rng, n, wrong, noise=0.05):
+    """(X1, X2, R, t): n points 5-11 m away moved by a random motion, with 3-D noise
+    (metres) and the first ``wrong`` of X2 replaced by unrelated points."""
+    X1 = rng.uniform(-3, 3, (n, 3)) + (0, 0, 8)
+    R, t = _rigid.rotations(rng.normal(0, 0.3, 3)), rng.normal(0, 1, 3)
+    X2 = X1 @ R.T + t + rng.normal(0, noise, (n, 3))
+    X2[:wrong] = rng.uniform(-3, 3, (wrong, 3)) + (0, 0, 8)
+    return X1, X2, R, t
+
+
+@pytest.mark.parametrize("wrong", [0, 150, 300])
+def test_robust_rigid_fit_finds_the_motion_among_wrong_matches(wrong):
+    rng = np.random.default_rng(wrong)
+    X1, X2, R, t = _points_with_outliers(rng, 360, wrong)
+    R_fit, t_fit, inliers = _rigid.robust_rigid_fit(X1, X2, 0.2, np.random.default_rng(0))
+    assert inliers[wrong:].mean() > 0.95 and inliers[:wrong].sum() <= 0.02 * max(wrong, 1)
+    assert np.linalg.norm(t_fit - t) < 0.06 and np.abs(R_fit - R).max() < 0.01
+    # it is the motion its inliers give (the local optimisation ran)
+    R_in, t_in = _rigid.rigid_fits(X1[inliers], X2[inliers])
+    assert np.allclose(R_fit, R_in) and np.allclose(t_fit, t_in)
+
+
+def test_robust_rigid_fit_agrees_with_colmaps():
+    """The seed :func:`liff.pose.ransac_pose` gives is the one pycolmap's
+    estimate_rigid3d_robust gave, which it replaces (without its 0.06 s import)."""
+    import pycolmap  # a test dependency (tests/test_colmap.py)
+    for seed, wrong in enumerate((100, 250)):
+        X1, X2, _, _ = _points_with_outliers(np.random.default_rng(10 + seed), 300, wrong)
+        R, t, inliers = liff.pose.ransac_pose(X1, X2, 0.2, seed)
+        options = pycolmap.RANSACOptions()
+        options.max_error, options.random_seed = 0.2, seed
+        theirs = pycolmap.estimate_rigid3d_robust(X1, X2, options)
+        matrix = np.asarray(theirs["tgt_from_src"].matrix())
+        assert (inliers == np.asarray(theirs["inlier_mask"], bool)).mean() > 0.99
+        assert np.abs(matrix[:, :3] - R).max() < 1e-3 and np.abs(matrix[:, 3] - t).max() < 1e-3
+
+
+@pytest.mark.parametrize("X1, X2, max_error, message", [
+    (np.zeros((2, 3)), np.zeros((2, 3)), 0.1, "expected at least 3"),
+    (np.zeros((5, 3)), np.zeros((5, 2)), 0.1, "expected two"),
+    (np.full((5, 3), np.nan), np.zeros((5, 3)), 0.1, "non-finite"),
+    (np.zeros((5, 3)), np.zeros((5, 3)), 0.0, "max_error"),
+])
+def test_robust_rigid_fit_refuses_bad_input(X1, X2, max_error, message):
+    with pytest.raises(ValueError, match=message):
+        _rigid.robust_rigid_fit(X1, X2, max_error, np.random.default_rng(0))
+
+
+def test_the_pose_command_does_not_import_pycolmap(tmp_path):
+    """``liff pose`` pays for no pycolmap import (issue 29: 0.06 of its 0.34 s)."""
+    import subprocess
+    import sys
+
+    rng = np.random.default_rng(5)
+    obs1, obs2, _, _ = scene(rng, n=80)
+    code = ("import sys, numpy as np, liff, liff.cli.pose\n"
+            f"o1, o2 = np.array({obs1.tolist()}), np.array({obs2.tolist()})\n"
+            "camera = liff.LightFieldCamera(400.0, 0.05, (200.0, 150.0), 5.0)\n"
+            "X1, X2 = liff.pose._back_project(camera, o1), liff.pose._back_project(camera, o2)\n"
+            "liff.pose.ransac_pose(X1, X2, 0.1)\n"
+            "liff.pose.observation_ransac(o1, o2, camera, camera)\n"
+            "print('pycolmap' in sys.modules)\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "False"

@@ -8,9 +8,11 @@
   capture 2's observations (x, y, slope) under the carried-over noise, and a Gauss-Newton
   fit of a pose to its inliers with an analytic Jacobian (local optimisation).
 
+* :func:`robust_rigid_fit`: a 3-D LO-RANSAC as COLMAP's ``estimate_rigid3d_robust``,
+  whose hypothesis :func:`liff.pose.estimate_relative_pose` scores as one more.
+
 Why not a library's robust estimator alone: OpenCV's ``estimateAffine3D`` and COLMAP's
-``estimate_rigid3d_robust`` (whose hypothesis :func:`liff.pose.estimate_relative_pose`
-scores as one more) threshold residuals in metres, and a light field's depth noise grows
+``estimate_rigid3d_robust`` (or :func:`robust_rigid_fit`) threshold residuals in metres, and a light field's depth noise grows
 as Z^2 / (f b) times its slope noise, so a 3-D threshold drops the right far matches or
 admits wrong near ones; these scores are in each capture's observations instead.
 
@@ -88,6 +90,86 @@ def sample_triples(rng: np.random.Generator, m: int, count: int) -> np.ndarray:
     k += k >= lo
     k += k >= hi
     return np.column_stack([i, j, k])
+
+
+def robust_rigid_fit(X1: np.ndarray, X2: np.ndarray, max_error: float, rng: np.random.Generator,
+                     confidence: float = 0.99, max_trials: int = 4096, batch: int = 256,
+                     local_rounds: int = 10) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """LO-RANSAC of a rigid motion ``X2 = R X1 + t`` between 3-D points, as COLMAP's
+    ``estimate_rigid3d_robust`` does it (an inlier's distance ``|R X1 + t - X2|`` at most
+    ``max_error``; support = inlier count, ties to the smaller sum of squared inlier
+    distances; the best model so far re-fitted to its inliers while its support grows;
+    trials until an all-inlier sample of 3 is drawn with ``confidence``, times 3 as
+    COLMAP's ``dyn_num_trials_multiplier``), with :func:`rigid_fits` over ``batch``
+    samples at once. Here so that the pose need not import pycolmap (0.06 s) for one
+    starting hypothesis.
+
+    Parameters
+    ----------
+    X1, X2 : ndarray, shape (N, 3)
+        Matched points, metres; N >= 3.
+    max_error : float
+        Inlier distance, metres (> 0).
+    rng : numpy.random.Generator
+    confidence : float in (0, 1)
+    max_trials : int
+        Most samples drawn (rounded up to whole batches).
+
+    Returns
+    -------
+    R : ndarray, shape (3, 3)
+    t : ndarray, shape (3,)
+        Metres.
+    inliers : ndarray of bool, shape (N,)
+
+    Raises
+    ------
+    ValueError
+        For fewer than 3 matches, shapes that differ, non-finite points or a
+        ``max_error`` that is not positive.
+    """
+    X1, X2 = np.asarray(X1, np.float64), np.asarray(X2, np.float64)
+    if X1.ndim != 2 or X1.shape[1] != 3 or X1.shape != X2.shape:
+        raise ValueError(f"points of shapes {X1.shape} and {X2.shape}; expected two (N, 3) arrays")
+    if not (np.isfinite(X1).all() and np.isfinite(X2).all()):
+        raise ValueError("non-finite 3-D points; expected finite coordinates")
+    if not max_error > 0:
+        raise ValueError(f"max_error = {max_error}; expected > 0 (metres)")
+    n = len(X1)
+    if n < 3:
+        raise ValueError(f"{n} matches; expected at least 3")
+    limit = float(max_error) ** 2
+
+    def support(R, t):  # (inlier masks (H, N), counts (H,), sums of squared inlier distances (H,))
+        d2 = np.sum((X1 @ np.swapaxes(R, -1, -2) + t[:, None, :] - X2) ** 2, axis=-1)
+        inside = d2 <= limit
+        return inside, inside.sum(axis=1), np.where(inside, d2, 0.0).sum(axis=1)
+
+    best = None  # (count, sum, R, t, inliers)
+    drawn, needed = 0, max_trials
+    while drawn < min(needed, max_trials):
+        sample = sample_triples(rng, n, batch)
+        R, t = rigid_fits(X1[sample], X2[sample])
+        drawn += batch
+        inside, count, total = support(R, t)
+        h = int(np.lexsort((total, -count))[0])
+        if best is not None and (count[h], -total[h]) <= (best[0], -best[1]):
+            continue
+        best = (count[h], total[h], R[h], t[h], inside[h])
+        for _ in range(local_rounds):  # local optimisation: re-fit to the inliers
+            if best[0] < 3:
+                break
+            R2, t2 = rigid_fits(X1[best[4]], X2[best[4]])
+            inside2, count2, total2 = support(R2[None], t2[None])
+            if (count2[0], -total2[0]) <= (best[0], -best[1]):
+                break
+            best = (count2[0], total2[0], R2, t2, inside2[0])
+        miss = 1.0 - (best[0] / n) ** 3  # chance that a sample holds an outlier
+        if miss <= 0:
+            needed = 0
+        elif miss < 1:
+            needed = int(np.ceil(3 * np.log(1 - confidence) / np.log(miss)))
+    return best[2], best[3], best[4]
 
 
 def rotations(rvecs: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 from . import synthetic
 from ._detector import LiFF
 from .outputs import atomic_output
-from .plot import draw_ground_truth, draw_keypoints_by_slope
+from .plot import draw_keypoints_by_slope
 
 DEMO_SHAPE = (9, 9, 192, 192)
 DEMO_SLOPES = (-0.8, -0.4, 0.0, 0.4)
@@ -62,8 +62,8 @@ def run_demo(out_dir: str, noise_variance: float = 1e-3) -> int:
     sift_keypoints = [cv2.KeyPoint(k.pt[0] - 0.25, k.pt[1] - 0.25, k.size) for k in sift_keypoints]
     sift_match = match_to_truth(sift_keypoints, blobs)
     used = detector.getSlicesUsed()
-    picture = draw_keypoints_by_slope(centre, keypoints, slope_range=(used[0], used[-1]))
-    draw_ground_truth(picture, [(b.x, b.y) for b in blobs], match.found)
+    picture = draw_keypoints_by_slope(centre, keypoints, slope_range=(used[0], used[-1]),
+                                      truth=(np.array([(b.x, b.y) for b in blobs]), match.found))
     path = os.path.join(out_dir, "features.png")
     with atomic_output(path) as partial:
         cv2.imwrite(partial, picture)

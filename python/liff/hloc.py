@@ -22,13 +22,17 @@ A light field's features are its centre view's: write the centre view as the ima
 from __future__ import annotations
 
 import os
-from typing import Optional, Sequence
+import shutil
+from contextlib import contextmanager
+from typing import Iterator, List, Optional, Sequence
 
 import cv2
 import numpy as np
 
-from .colmap import keypoints_to_colmap
+from .colmap import grey_uint8_image, keypoints_to_colmap
+from .io.images import write_image
 from .keypoint_rows import keypoint_slopes
+from .outputs import atomic_output
 
 
 def names_to_pair(name0: str, name1: str) -> str:
@@ -140,3 +144,70 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
         scores0[m.queryIdx] = 1.0 / (1.0 + m.distance)
     _write_group(path, names_to_pair(name0, name1), "the pair",
                  {"matches0": matches0, "matching_scores0": scores0}, overwrite)
+
+
+def image_name(feature_path: "os.PathLike") -> str:
+    """The image name under which a liff feature file's light field goes into hloc's
+    files (and whose centre view :func:`add_feature_files` writes): ``feats/pose00.npz``
+    -> ``pose00.png``."""
+    return os.path.splitext(os.path.basename(os.fspath(feature_path)))[0] + ".png"
+
+
+@contextmanager
+def updated(path: "os.PathLike") -> Iterator[str]:
+    """Yields a temporary copy of the HDF5 file ``path`` (an empty name if it does not
+    exist) to add groups to; it replaces ``path`` when the block ends without an
+    exception (a run killed midway leaves the old file)."""
+    with atomic_output(path) as partial:
+        if os.path.exists(path):
+            shutil.copyfile(path, partial)
+        yield partial
+
+
+def add_feature_files(path: "os.PathLike", feature_paths: Sequence["os.PathLike"],
+                      image_dir: Optional["os.PathLike"] = None) -> List[str]:
+    """Adds liff feature files (``.npz`` from ``liff detect``) to the hloc features file
+    ``path``, each as the group :func:`image_name` (replaced if there; other groups are
+    kept), and with ``image_dir`` writes each centre view there under that name (grey
+    8-bit PNG, as COLMAP reads it), the image folder hloc's triangulation and
+    reconstruction are given.
+
+    Parameters
+    ----------
+    path : path-like
+        The HDF5 features file; made if missing, else updated in a copy that replaces it.
+    feature_paths : sequence of path-like
+        Feature files; their names must differ.
+    image_dir : path-like, optional
+        Where to write the centre views.
+
+    Returns
+    -------
+    names : list of str
+        The image names, in the order of ``feature_paths``.
+
+    Raises
+    ------
+    ValueError
+        For two feature files of one name, or a file that is not a liff feature file
+        with its centre view.
+    """
+    from .feature_file import load_features
+
+    names = [image_name(p) for p in feature_paths]
+    if len(set(names)) != len(names):
+        raise ValueError(f"feature files give repeated image names {sorted(names)}; expected "
+                         "distinct file names")
+    with updated(path) as partial:
+        for name, feature_path in zip(names, feature_paths):
+            features = load_features(feature_path)
+            view = features.centre_view
+            if view is None:  # (its size is the image_size hloc needs)
+                raise ValueError(f"{os.fspath(feature_path)}: holds no centre view; expected a "
+                                 "feature file from liff detect")
+            write_features(partial, name, features.keypoints, features.descriptors,
+                           (view.shape[1], view.shape[0]), overwrite=True)
+            if image_dir is not None:
+                with atomic_output(os.path.join(image_dir, name)) as image:
+                    write_image(image, grey_uint8_image(view))
+    return names

@@ -37,9 +37,12 @@ def draw_keypoints_by_slope(
     slope_range: Optional[Tuple[float, float]] = None,
     colormap: int = cv2.COLORMAP_TURBO,
     scale: int = 2,
+    truth: Optional[Tuple[np.ndarray, np.ndarray]] = None,
 ) -> np.ndarray:
     """Draws keypoints as circles (radius = size / 2, a tick for the angle) coloured by
-    slope, with a colour bar on the right.
+    slope, each with a dot of its colour at its centre (a thin dark outline, radius
+    :func:`dot_radius`, drawn over every circle so that no feature's colour is hidden),
+    and a colour bar on the right.
 
     Parameters
     ----------
@@ -51,6 +54,9 @@ def draw_keypoints_by_slope(
         Slopes mapped to the ends of the colour map (default: the keypoints' range).
     scale : int
         Upscaling of the picture, so that small features stay visible.
+    truth : (ndarray (N, 2), ndarray of bool (N,)), optional
+        Known feature positions (x, y) in the view's pixels and whether each was found,
+        marked by :func:`draw_ground_truth` over the circles and under the dots.
 
     Returns
     -------
@@ -66,16 +72,32 @@ def draw_keypoints_by_slope(
     slopes = keypoint_slopes(keypoints)
     if slope_range is None:
         slope_range = (float(slopes.min()), float(slopes.max())) if len(slopes) else (-1.0, 1.0)
-    colours = slope_colours(slopes, slope_range, colormap)
-    for kp, colour in zip(keypoints, colours):
-        centre = np.array(kp.pt) * scale + (scale - 1) / 2
+    colours = [tuple(int(v) for v in colour) for colour in slope_colours(slopes, slope_range, colormap)]
+    centres = [np.array(kp.pt) * scale + (scale - 1) / 2 for kp in keypoints]
+    for kp, centre, c in zip(keypoints, centres, colours):
         radius = max(kp.size / 2 * scale, 2.0)
-        c = tuple(int(v) for v in colour)
-        cv2.circle(canvas, tuple(np.round(centre).astype(int)), int(round(radius)), c, 1, cv2.LINE_AA)
+        cv2.circle(canvas, _pixel(centre), int(round(radius)), c, 1, cv2.LINE_AA)
         tip = centre + radius * np.array([np.cos(np.radians(kp.angle)), np.sin(np.radians(kp.angle))])
-        cv2.line(canvas, tuple(np.round(centre).astype(int)), tuple(np.round(tip).astype(int)), c, 1,
-                 cv2.LINE_AA)
+        cv2.line(canvas, _pixel(centre), _pixel(tip), c, 1, cv2.LINE_AA)
+    if truth is not None:
+        draw_ground_truth(canvas, truth[0], truth[1], scale)
+    dot = dot_radius(scale)
+    for centre in centres:  # every outline first: no outline covers another feature's dot
+        cv2.circle(canvas, _pixel(centre), dot + 1, (0, 0, 0), -1, cv2.LINE_8)
+    for centre, c in zip(centres, colours):
+        cv2.circle(canvas, _pixel(centre), dot, c, -1, cv2.LINE_8)
     return np.hstack([canvas, _colour_bar(canvas.shape[0], slope_range, colormap)])
+
+
+def dot_radius(scale: int) -> int:
+    """Radius in pixels of the slope-coloured dot at a feature's centre in a picture
+    drawn at ``scale`` (3 at the default 2)."""
+    return max(2, scale + 1)
+
+
+def _pixel(point) -> Tuple[int, int]:
+    """The integer pixel nearest to a point (x, y)."""
+    return tuple(int(v) for v in np.round(np.asarray(point, float)))
 
 
 def text_scale(height: int) -> float:
@@ -116,9 +138,10 @@ MIN_HEIGHT = 120  # pixels: the colour bar's three labels fit
 
 def draw_ground_truth(picture: np.ndarray, points: np.ndarray, found: np.ndarray,
                       scale: int = 2) -> np.ndarray:
-    """Marks known feature positions on a picture from :func:`draw_keypoints_by_slope`:
-    a white + on the ones found, a magenta x on the ones missed (colours the slope map
-    does not use), and a legend with both counts at the top left.
+    """Marks known feature positions on a picture from :func:`draw_keypoints_by_slope`
+    (which calls this with its ``truth``, under the features' dots): a white + on the ones found, its arms starting outside the feature's dot so that the
+    slope colour shows through the gap in its middle, a magenta x on the ones missed
+    (colours the slope map does not use), and a legend with both counts at the top left.
 
     Parameters
     ----------
@@ -131,12 +154,19 @@ def draw_ground_truth(picture: np.ndarray, points: np.ndarray, found: np.ndarray
         The picture's ``scale``.
     """
     size = max(7, int(round(picture.shape[0] / 40)))
+    gap = dot_radius(scale) + 2  # the dot and its outline, and a pixel of the view
+    arm = max(size // 2, gap + 3)
     for (x, y), hit in zip(np.asarray(points, float), np.asarray(found, bool)):
-        centre = tuple(int(round(v * scale + (scale - 1) / 2)) for v in (x, y))
-        marker = cv2.MARKER_CROSS if hit else cv2.MARKER_TILTED_CROSS
-        colour = (255, 255, 255) if hit else (255, 0, 255)
-        cv2.drawMarker(picture, centre, (0, 0, 0), marker, size + 2, 4)
-        cv2.drawMarker(picture, centre, colour, marker, size, 2)
+        centre = np.array([x, y]) * scale + (scale - 1) / 2
+        if not hit:
+            cv2.drawMarker(picture, _pixel(centre), (0, 0, 0), cv2.MARKER_TILTED_CROSS, size + 2, 4)
+            cv2.drawMarker(picture, _pixel(centre), (255, 0, 255), cv2.MARKER_TILTED_CROSS, size, 2)
+            continue
+        for colour, width, extra in (((0, 0, 0), 4, 1), ((255, 255, 255), 2, 0)):
+            for direction in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+                d = np.array(direction)
+                cv2.line(picture, _pixel(centre + gap * d), _pixel(centre + (arm + extra) * d),
+                         colour, width, cv2.LINE_8)
     found = np.asarray(found, bool)
     font = text_scale(picture.shape[0])
     lines = [(f"+ found {found.sum()}/{len(found)}", (255, 255, 255)),

@@ -27,7 +27,7 @@ import cv2
 import numpy as np
 
 from . import _bundle
-from ._rigid import TransferScorer, rigid_fits as _rigid_fits, sample_triples
+from ._rigid import TransferScorer, rigid_fits as _rigid_fits, robust_rigid_fit, sample_triples
 from .camera import LightFieldCamera, keypoint_geometry
 from .matching import size_mask, ratio_matches
 
@@ -718,30 +718,24 @@ def guided_matches(obs1: np.ndarray, descriptors1: np.ndarray, obs2: np.ndarray,
 
 def ransac_pose(points1: np.ndarray, points2: np.ndarray, max_error: float,
                 seed: int = 0) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rigid motion ``X2 = R X1 + t`` from 3-D-3-D matches by COLMAP's LO-RANSAC
-    (pycolmap.estimate_rigid3d_robust); ``max_error`` in metres. Returns (R, t, inlier
-    mask).
+    """Rigid motion ``X2 = R X1 + t`` from 3-D-3-D matches by LO-RANSAC as COLMAP's
+    ``estimate_rigid3d_robust`` (:func:`liff._rigid.robust_rigid_fit`, in numpy: no
+    pycolmap import); ``max_error`` in metres. Returns (R, t, inlier mask).
 
     Raises
     ------
     PoseEstimationError
-        If RANSAC finds no motion.
-    ImportError
-        Without pycolmap (``pip install 'liff[sfm]'``).
+        If RANSAC finds no motion with at least 3 inliers.
+    ValueError
+        For a seed outside [0, 2**31), or points :func:`robust_rigid_fit` refuses.
     """
-    try:
-        import pycolmap
-    except ImportError as error:  # pragma: no cover - only without the extra
-        raise ImportError("liff.estimate_relative_pose needs pycolmap: pip install 'liff[sfm]'") from error
-    options = pycolmap.RANSACOptions()
-    options.max_error = float(max_error)
-    options.random_seed = int(seed)
-    rigid = pycolmap.estimate_rigid3d_robust(np.ascontiguousarray(points1, np.float64),
-                                             np.ascontiguousarray(points2, np.float64), options)
-    if rigid is None or rigid["num_inliers"] < MIN_MATCHES:
+    _check_seed(seed)
+    if len(points1) < MIN_MATCHES:
+        raise PoseEstimationError(f"{len(points1)} 3-D matches; expected at least {MIN_MATCHES}")
+    R, t, inliers = robust_rigid_fit(points1, points2, max_error, np.random.default_rng(seed))
+    if inliers.sum() < MIN_MATCHES:
         raise PoseEstimationError(f"RANSAC found no rigid motion among {len(points1)} 3-D matches")
-    matrix = np.asarray(rigid["tgt_from_src"].matrix())
-    return matrix[:, :3], matrix[:, 3], np.asarray(rigid["inlier_mask"], bool)
+    return R, t, inliers
 
 
 def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.ndarray,
@@ -796,9 +790,9 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
     -----
     1. Putative matches: ratio test (optionally scale-sensitive).
     2. RANSAC (:func:`observation_ransac`): rigid motions of the 3-D points
-       (:meth:`LightFieldCamera.points_3d`) of samples of 3 matches, and COLMAP's
-       LO-RANSAC on all of them (threshold 3% of their median depth), each scored by
-       how far capture 2's observations (x, y, slope) lie from capture 1's features
+       (:meth:`LightFieldCamera.points_3d`) of samples of 3 matches, and a 3-D
+       LO-RANSAC as COLMAP's (:func:`ransac_pose`) on all of them (threshold 3% of
+       their median depth), each scored by how far capture 2's observations (x, y, slope) lie from capture 1's features
        carried over, so that far points, whose depths are poor, still count; the best
        are re-fitted to their inliers. Only to find a starting pose and inliers.
     3. :func:`refine_relative_pose` from the RANSAC inliers: bundle adjustment of the
@@ -835,7 +829,7 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
         raise PoseEstimationError(f"{int(finite.sum())} putative matches with a depth in both "
                                   f"captures (of {len(matches)}); expected at least {MIN_MATCHES}")
     threshold = 0.03 * float(np.median(np.concatenate([X1[finite, 2], X2[finite, 2]])))
-    try:  # COLMAP's 3-D RANSAC: one more hypothesis for the scoring in observations
+    try:  # a 3-D RANSAC as COLMAP's: one more hypothesis for the scoring in observations
         seeds = [ransac_pose(X1[finite], X2[finite], threshold, seed)[:2]]
     except PoseEstimationError:
         seeds = []

@@ -399,6 +399,31 @@ def protected_inputs(args: argparse.Namespace) -> List[str]:
     return args.paths + getattr(args, "given_paths", [])
 
 
+def check_hloc_output(path: Optional[str], inputs: Sequence[str], flag: str) -> None:
+    """Before anything runs: an hloc file ``path`` (if given) is none of ``inputs`` nor
+    inside them, h5py is there, and a file already at ``path`` is HDF5 (its other groups are kept).
+
+    Raises
+    ------
+    ValueError
+        For an input, or a file that is not HDF5, at ``path``.
+    ImportError
+        Without h5py.
+    """
+    if path is None:
+        return
+    from ..outputs import refuse_inputs
+
+    refuse_inputs([path], inputs, flag)
+    try:
+        import h5py
+    except ImportError as error:
+        raise ImportError(f"{flag} needs h5py: pip install 'liff[hdf5]'") from error
+    if os.path.exists(path) and not h5py.is_hdf5(path):
+        raise ValueError(f"{path}: exists and is not an HDF5 file; expected a new {flag} path "
+                         "or an hloc file to add to; nothing was written")
+
+
 def output_name(path: str, suffix: str) -> str:
     """``scene.png`` -> ``scene<suffix>``; a folder ``a/scene/`` -> ``scene<suffix>``."""
     base = os.path.basename(os.path.normpath(path))

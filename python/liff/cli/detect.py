@@ -51,6 +51,13 @@ def add_parser(sub) -> None:
                         "range, seconds, CPU seconds, error, worker) here, as the run goes "
                         "(default for several inputs: OUT/manifest-<UTC time>.csv, or "
                         "...-2.csv when a run of the same second has taken it)")
+    p.add_argument("--hloc", default=None, metavar="FEATS.h5",
+                   help="also add every output's features to this hloc features file (a group "
+                        "per light field named OUTPUT-NAME.png; pip install 'liff[hdf5]'), for "
+                        "hloc's matchers, triangulation and reconstruction")
+    p.add_argument("--hloc-images", default=None, metavar="DIR",
+                   help="with --hloc: write each centre view here under its group's name (the "
+                        "image folder hloc is given)")
     mask.add_mask_option(p)
     p.add_argument("--overwrite", action="store_true",
                    help="redo outputs that exist even if made with the same settings, and "
@@ -308,6 +315,12 @@ def run(args: argparse.Namespace) -> int:
     mask.check_mask_option(getattr(args, "mask", None))
     tasks, kept, redo = plan(args, common.reader_options(args),
                              common.detector_parameters(args, given_only=True))
+    common.check_hloc_output(args.hloc, common.protected_inputs(args), "--hloc")
+    if args.hloc_images and not args.hloc:
+        raise ValueError("--hloc-images without --hloc; expected both (the features file and "
+                         "its images)")
+    if args.hloc_images:
+        refuse_inputs([args.hloc_images], common.protected_inputs(args), "--hloc-images")
     manifest = args.manifest
     if manifest:
         check_manifest(manifest, args, tasks, kept)
@@ -331,6 +344,13 @@ def run(args: argparse.Namespace) -> int:
     failed = sum(outcome.status == "failed" for outcome in outcomes)
     if manifest:
         print(f"manifest: {manifest}")
+    if args.hloc:
+        from ..hloc import add_feature_files
+
+        written = [o.output for o in outcomes + kept if o.status != "failed"]
+        names = add_feature_files(args.hloc, written, args.hloc_images)
+        print(f"hloc: {len(names)} light field(s) -> {args.hloc}"
+              + (f", centre views -> {args.hloc_images}" if args.hloc_images else ""))
     if failed:
         print(f"liff detect: {failed} of {len(tasks)} light field(s) failed", file=sys.stderr)
     return 1 if failed else 0

@@ -37,6 +37,10 @@ def add_parser(sub) -> None:
     p.add_argument("--model", choices=("homography", "fundamental"), default="homography",
                    help="RANSAC model (default homography)")
     p.add_argument("--threshold", type=common.positive_float, default=3.0, help="RANSAC pixels (default 3)")
+    p.add_argument("--hloc", default=None, metavar="MATCHES.h5",
+                   help="also add the pair's ratio-test matches to this hloc matches file, "
+                        "under the names liff detect --hloc gives (A-NAME.png, B-NAME.png); "
+                        "pip install 'liff[hdf5]'")
     common.add_reader_options(p)
     common.add_detector_options(p)
     p.set_defaults(run=run)
@@ -63,6 +67,7 @@ def features_of(path: str, args: argparse.Namespace) -> Features:
 def run(args: argparse.Namespace) -> int:
     if args.plot:
         refuse_inputs([args.plot], [args.a, args.b], "--plot")
+    common.check_hloc_output(args.hloc, [args.a, args.b], "--hloc")
     fa, fb = features_of(args.a, args), features_of(args.b, args)
     matches = ratio_matches(fa.descriptors, fb.descriptors, args.ratio)
     result = verify(fa.keypoints, fb.keypoints, matches, args.model, args.threshold)
@@ -74,6 +79,14 @@ def run(args: argparse.Namespace) -> int:
         print(f"warning: {result.inlier_count} inliers are too few to show that the two share a "
               f"scene (expected at least {MIN_INLIERS}, and {CHANCE_FACTOR}x the {chance} that "
               "RANSAC keeps among randomly re-paired matches)", file=sys.stderr)
+    if args.hloc:
+        from ..hloc import image_name, updated, write_matches
+
+        with updated(args.hloc) as partial:
+            write_matches(partial, image_name(args.a), image_name(args.b), matches,
+                          len(fa.keypoints), overwrite=True)
+        print(f"hloc: {len(matches)} matches of {image_name(args.a)} and {image_name(args.b)} "
+              f"-> {args.hloc}")
     if args.plot:
         if fa.centre_view is None or fb.centre_view is None:
             raise ValueError("--plot needs the centre views; the feature files hold none")

@@ -11,6 +11,7 @@ from .eslf import read_eslf
 from .hci import _VIEW as _HCI_VIEW
 from .hci import read_hci
 from .hdf5 import read_hdf5
+from .images import IMAGE_SUFFIXES
 from .intensity import scale_bit_depth
 from .mat import read_mat
 from .mosaic import read_mosaic
@@ -57,8 +58,8 @@ def guess_format(path: PathLike) -> Optional[str]:
     stem, suffix = os.path.splitext(name)
     if suffix in SUFFIXES:
         return SUFFIXES[suffix]
-    if ".eslf." in name or stem.endswith("_eslf"):
-        return "eslf"
+    if (".eslf." in name or stem.endswith("_eslf")) and suffix in IMAGE_SUFFIXES:
+        return "eslf"  # (not scene.eslf.png.truth.json, which liff synth writes beside it)
     return None
 
 

@@ -3,20 +3,36 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <map>
 
 #include "hot_loop.hpp"
 #include "vec8.hpp"
 
 namespace liff {
 namespace detail {
+namespace {
+
+// Gaussian kernels gaussianTaps keeps (a few hundred bytes each).
+constexpr size_t kKeptKernels = 256;
+
+}  // namespace
 
 GaussianTaps gaussianTaps(double sigma) {
   CV_Assert(sigma > 0);
+  // cv::getGaussianKernel computes in soft floating point (~1-3 us a kernel): the
+  // scale space asks for the same few sigmas in every batch of every call, so each
+  // thread keeps the kernels it made, a bounded number of them (the base blur's sigma
+  // varies by slice). Per thread: no lock, nothing shared with a forked child.
+  thread_local std::map<double, GaussianTaps> kept;
+  auto it = kept.find(sigma);
+  if (it != kept.end()) return it->second;
   const int size = cvRound(sigma * 4 * 2 + 1) | 1;  // cv::GaussianBlur's for float images
   const cv::Mat kernel = cv::getGaussianKernel(size, sigma, CV_32F);
   const int radius = size / 2;
   GaussianTaps half;
   half.taps.assign(kernel.ptr<float>() + radius, kernel.ptr<float>() + size);
+  if (kept.size() >= kKeptKernels) kept.clear();
+  kept.emplace(sigma, half);
   return half;
 }
 

@@ -62,11 +62,17 @@ cv::Mat viewValues(const LightField& lf, int t, int s) {
 // least window cost and its slope index, and the sum and number of window costs.
 struct Votes {
   cv::Mat best, index, sum, count;  // CV_32F, CV_32S, CV_32F, CV_32S
+  /// Allocated, not yet set: clear() sets rows to no votes.
   explicit Votes(cv::Size size)
-      : best(size, CV_32F, cv::Scalar(std::numeric_limits<float>::infinity())),
-        index(size, CV_32S, cv::Scalar(-1)),
-        sum(size, CV_32F, cv::Scalar(0)),
-        count(size, CV_32S, cv::Scalar(0)) {}
+      : best(size, CV_32F), index(size, CV_32S), sum(size, CV_32F), count(size, CV_32S) {}
+  /// Rows [rowBegin, rowEnd) to no votes: best +inf, index -1, sum and count 0.
+  void clear(int rowBegin, int rowEnd) {
+    const cv::Range rows(rowBegin, rowEnd);
+    best.rowRange(rows).setTo(std::numeric_limits<float>::infinity());
+    index.rowRange(rows).setTo(-1);
+    sum.rowRange(rows).setTo(0);
+    count.rowRange(rows).setTo(0);
+  }
 };
 
 // A view at `offset` view steps from the reference view along one axis (x for a view of
@@ -232,6 +238,12 @@ Votes sweepAll(const cv::Mat& reference, const std::vector<Compared>& views, lon
   const int chunks = std::max(1, std::min(n, kSweepChunks));
   std::vector<Votes> partial;
   for (int c = 0; c < chunks; ++c) partial.emplace_back(reference.size());
+  const int bands = (reference.rows + kSweepRowsPerBand - 1) / kSweepRowsPerBand;
+  parallelFor("survey plane sweep", cv::Range(0, bands), [&](const cv::Range& range) {
+    for (Votes& votes : partial)
+      votes.clear(range.start * kSweepRowsPerBand,
+                  std::min(reference.rows, range.end * kSweepRowsPerBand));
+  });
   std::vector<int> chunkOf(n);  // chunk c holds slopes [c n / chunks, (c + 1) n / chunks)
   for (int c = 0; c < chunks; ++c)
     for (int k = c * n / chunks; k < (c + 1) * n / chunks; ++k) chunkOf[k] = c;
@@ -242,7 +254,6 @@ Votes sweepAll(const cv::Mat& reference, const std::vector<Compared>& views, lon
   std::vector<Scratch> scratch(std::min(n, kSweepSlopesPerGroup));
   std::vector<cv::Rect> roi(scratch.size());
   std::vector<char> swept(scratch.size());
-  const int bands = (reference.rows + kSweepRowsPerBand - 1) / kSweepRowsPerBand;
   for (int g0 = 0; g0 < n; g0 += int(scratch.size())) {
     const int g1 = std::min(n, g0 + int(scratch.size()));
     parallelFor("survey plane sweep", cv::Range(g0, g1), [&](const cv::Range& range) {
@@ -260,14 +271,21 @@ Votes sweepAll(const cv::Mat& reference, const std::vector<Compared>& views, lon
       }
     });
   }
+  // Merged in chunk order, band by band (each pixel's sums in the same order).
   Votes& all = partial[0];
-  for (int c = 1; c < chunks; ++c) {
-    all.sum += partial[c].sum;
-    all.count += partial[c].count;
-    const cv::Mat better = partial[c].best < all.best;
-    partial[c].best.copyTo(all.best, better);
-    partial[c].index.copyTo(all.index, better);
-  }
+  parallelFor("survey plane sweep", cv::Range(0, bands), [&](const cv::Range& range) {
+    const cv::Range rows(range.start * kSweepRowsPerBand,
+                         std::min(reference.rows, range.end * kSweepRowsPerBand));
+    for (int c = 1; c < chunks; ++c) {
+      cv::Mat sum = all.sum.rowRange(rows), count = all.count.rowRange(rows);
+      cv::Mat best = all.best.rowRange(rows), index = all.index.rowRange(rows);
+      sum += partial[c].sum.rowRange(rows);
+      count += partial[c].count.rowRange(rows);
+      const cv::Mat better = partial[c].best.rowRange(rows) < best;
+      partial[c].best.rowRange(rows).copyTo(best, better);
+      partial[c].index.rowRange(rows).copyTo(index, better);
+    }
+  });
   return all;
 }
 
@@ -324,18 +342,26 @@ SlopeIntervals sweepSlopes(const LightField& lf, double lo, double hi, float min
   // Votes of the pixels that saw at least half the slopes (their best is a choice among
   // many), whose best is clearly better than their typical cost, whose window is
   // textured well above that best's residual, and where LiFF could find a feature.
-  std::vector<int> votes(n, 0);
+  // Counted per band of rows in parallel, then added up (integers: in any order).
   const float compared = float(views.size());
-  for (int y = 0; y < lf.V; ++y)
-    for (int x = 0; x < lf.U; ++x) {
-      const int count = all.count.at<int>(y, x);
-      if (count < std::max(3, n / 2)) continue;
-      const float best = all.best.at<float>(y, x);
-      if (best < kConsistency * all.sum.at<float>(y, x) / count &&
-          texture.at<float>(y, x) >= kTextureToResidual * best / compared &&
-          response.at<float>(y, x) >= minResponse)
-        ++votes[all.index.at<int>(y, x)];
-    }
+  const int bands = (lf.V + kSweepRowsPerBand - 1) / kSweepRowsPerBand;
+  std::vector<std::vector<int>> bandVotes(bands, std::vector<int>(n, 0));
+  parallelFor("survey plane sweep", cv::Range(0, bands), [&](const cv::Range& range) {
+    for (int band = range.start; band < range.end; ++band)
+      for (int y = band * kSweepRowsPerBand; y < std::min(lf.V, (band + 1) * kSweepRowsPerBand); ++y)
+        for (int x = 0; x < lf.U; ++x) {
+          const int count = all.count.at<int>(y, x);
+          if (count < std::max(3, n / 2)) continue;
+          const float best = all.best.at<float>(y, x);
+          if (best < kConsistency * all.sum.at<float>(y, x) / count &&
+              texture.at<float>(y, x) >= kTextureToResidual * best / compared &&
+              response.at<float>(y, x) >= minResponse)
+            ++bandVotes[band][all.index.at<int>(y, x)];
+        }
+  });
+  std::vector<int> votes(n, 0);
+  for (const std::vector<int>& counted : bandVotes)
+    for (int k = 0; k < n; ++k) votes[k] += counted[k];
   // Each slope with enough votes stands for the slopes nearer to it than to its neighbours.
   SlopeIntervals found;
   for (int k = 1; k + 1 < n; ++k) {

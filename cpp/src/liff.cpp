@@ -18,6 +18,7 @@
 #include "memory.hpp"
 #include "pipeline.hpp"
 #include "profile.hpp"
+#include "require.hpp"
 #include "scale_space.hpp"
 #include "slope_plan.hpp"
 #include "slope_range.hpp"
@@ -47,9 +48,7 @@ using detail::Detections;
 using detail::LightField;
 using detail::SlopePlan;
 
-void require(bool ok, const cv::String& message) {
-  if (!ok) CV_Error(cv::Error::StsOutOfRange, "LiFF: " + message);
-}
+using detail::require;
 
 constexpr double kBytesPerMB = 1024.0 * 1024.0;
 
@@ -309,18 +308,12 @@ cv::Ptr<LiFF> LiFF::create(const Parameters& parameters) {
 cv::Ptr<LiFF> LiFF::create(int nfeatures, int nOctaveLayers, double contrastThreshold,
                            double edgeThreshold, double sigma, double firstSlope, double lastSlope,
                            int numSlopes, int descriptorType, bool rootSift, int firstOctave) {
+  // Every parameter of the table from the argument of its name: one the signature
+  // lacks does not compile (and test_api.cpp calls this with the table, in order).
   Parameters parameters;
-  parameters.nfeatures = nfeatures;
-  parameters.nOctaveLayers = nOctaveLayers;
-  parameters.contrastThreshold = contrastThreshold;
-  parameters.edgeThreshold = edgeThreshold;
-  parameters.sigma = sigma;
-  parameters.firstSlope = firstSlope;
-  parameters.lastSlope = lastSlope;
-  parameters.numSlopes = numSlopes;
-  parameters.descriptorType = descriptorType;
-  parameters.rootSift = rootSift;
-  parameters.firstOctave = firstOctave;
+#define LIFF_SET_PARAMETER(Type, name, Name, value, help) parameters.name = name;
+  LIFF_PARAMETERS(LIFF_SET_PARAMETER)
+#undef LIFF_SET_PARAMETER
   return create(parameters);
 }
 

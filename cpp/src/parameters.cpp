@@ -6,14 +6,13 @@
 #include <liff/parameters.hpp>
 #include <string>
 
+#include "require.hpp"
 #include "slope_plan.hpp"
 
 namespace liff {
 namespace {
 
-void require(bool ok, const cv::String& message) {
-  if (!ok) CV_Error(cv::Error::StsOutOfRange, "LiFF: " + message);
-}
+using detail::require;
 
 // A slope bound: finite within kMaxAbsSlope, or the infinity of its side (automatic).
 void checkSlope(const char* name, double v, double automatic) {

@@ -4,16 +4,10 @@
 #include <cmath>
 
 #include "focal_stack.hpp"
+#include "require.hpp"
 
 namespace liff {
 namespace detail {
-namespace {
-
-void require(bool ok, const cv::String& message) {
-  if (!ok) CV_Error(cv::Error::StsOutOfRange, "LiFF: " + message);
-}
-
-}  // namespace
 
 int SlopePlan::nearest(double slope) const {
   if (slopes.empty()) return -1;

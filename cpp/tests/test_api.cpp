@@ -15,6 +15,7 @@
 #include <functional>
 #include <random>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace {
@@ -87,6 +88,37 @@ TEST(Feature2DInterface, DetectThroughTheBaseClassValidatesLikeDetectAndCompute)
   const cv::Ptr<cv::Feature2D> base = liff::LiFF::create();
   std::vector<cv::KeyPoint> kps;
   EXPECT_TRUE(throwsWith([&] { base->detect(cv::Mat(), kps); }, "empty"));
+}
+
+// The table's parameters, in its order, as create()'s positional arguments: a
+// positional overload that lacks one does not compile here, and a value that lands in
+// another parameter's place shows in the getters (every value differs from its default).
+TEST(Parameters, PositionalCreateTakesTheTablesParametersInTheirOrder) {
+  liff::Parameters custom;
+  custom.nfeatures = 17;
+  custom.nOctaveLayers = 4;
+  custom.contrastThreshold = 0.031;
+  custom.edgeThreshold = 7.5;
+  custom.sigma = 1.3;
+  custom.firstSlope = -0.75;
+  custom.lastSlope = 1.25;
+  custom.numSlopes = 9;
+  custom.descriptorType = CV_8U;
+  custom.rootSift = true;
+  custom.firstOctave = 0;
+  const liff::Parameters defaults;
+#define LIFF_EXPECT_NOT_DEFAULT(Type, name, Name, value, help) \
+  EXPECT_NE(custom.name, defaults.name) << #name " needs a value of its own in this test";
+  LIFF_PARAMETERS(LIFF_EXPECT_NOT_DEFAULT)
+#undef LIFF_EXPECT_NOT_DEFAULT
+#define LIFF_ARGUMENT(Type, name, Name, value, help) std::make_tuple(custom.name),
+  const auto arguments = std::tuple_cat(LIFF_PARAMETERS(LIFF_ARGUMENT) std::tuple<>());
+#undef LIFF_ARGUMENT
+  const cv::Ptr<liff::LiFF> d =
+      std::apply([](auto... values) { return liff::LiFF::create(values...); }, arguments);
+#define LIFF_EXPECT_SET(Type, name, Name, value, help) EXPECT_EQ(d->get##Name(), custom.name) << #name;
+  LIFF_PARAMETERS(LIFF_EXPECT_SET)
+#undef LIFF_EXPECT_SET
 }
 
 TEST(Feature2DInterface, DetectAndComputeCalledApartThroughTheBaseClassEqualDetectAndCompute) {

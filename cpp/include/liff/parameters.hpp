@@ -7,7 +7,17 @@
 // (FileStorage), the Python module's keywords, getters, setters and defaults
 // (liff._core.PARAMETERS), the Python create() and the `liff` command's options.
 // Ranges are enforced in one place, Parameters::check() (parameters.cpp).
-// Adding a parameter: one X line here, one check in check(), and its use.
+// Adding a parameter, every edit (each one a test or the compiler asks for):
+//   1. one X line here (at the end: create()'s positional order is this order);
+//   2. its range in Parameters::check();
+//   3. its argument in the positional LiFF::create() overload, declared in liff.hpp and
+//      defined in liff.cpp (the definition assigns every table entry by name, so a
+//      missing argument does not compile; cpp/tests/test_api.cpp calls it with the
+//      table in order);
+//   4. its getter and setter in python/liff/_core.pyi (tests/test_api.py compares the
+//      stubs with the module) and its keyword in the README's create() signature
+//      (tests/test_api.py compares it with the table);
+//   5. its use in the core.
 #pragma once
 
 #include <opencv2/core.hpp>

@@ -18,6 +18,8 @@ For each scene:
    schedule of its tasks on P threads (which ignores memory bandwidth and the
    scheduler's own cost: an upper bound of the speed-up), as a speed-up T1 / T(P).
 4. Repeated SIFT (cv2.SIFT on every view) against LiFF, one thread.
+   Also: the automatic slope range's cost, the default call against one given by hand
+   the slopes the survey chose; and the one-thread seconds of each parallel loop.
 5. In fresh processes: the peak memory a default detection adds to the process
    (its peak resident size, VmHWM, reset before the call, less its resident size
    then) and the page faults of a second detection in a
@@ -133,6 +135,25 @@ def profile(detector, lf, batch: int, repeats: int = 3):
     return fastest, serial, loops
 
 
+def survey_cost(default, lf, rounds: int) -> None:
+    """What the automatic slope range costs: the default call against a call given, by
+    hand, the slices the default built (searched slopes and the unsearched guard at each
+    end), interleaved. The hand-set call also searches the two guards, so the survey's
+    share it gives is a lower bound."""
+    used = list(default.getSlicesUsed())
+    if len(used) < 2:
+        return
+    given = liff.LiFF.create(firstSlope=used[0], lastSlope=used[-1], numSlopes=len(used))
+    given.detectAndCompute(lf, None)  # warm
+    same = np.allclose(list(given.getSlicesUsed()), used, rtol=0, atol=1e-9)
+    t = interleaved(rounds, auto=lambda: default.detectAndCompute(lf, None),
+                    given=lambda: given.detectAndCompute(lf, None))
+    ratio = median_ratio(t["auto"], t["given"])
+    print(f"the automatic range against its {len(used)} slices given by hand "
+          f"({'the same' if same else 'NOT the same'} slices built): {ratio:.2f}x, the survey at "
+          f"least {100 * (1 - 1 / ratio):.0f}% of a default call")
+
+
 def stage_model(detector, lf) -> None:
     """One-thread stage times, parallel shares and the predicted speed-ups."""
     (wall, stages, in_loops, loops), _, _ = profile(detector, lf, 1)
@@ -147,6 +168,11 @@ def stage_model(detector, lf) -> None:
         print(f"| {name} | {s:.3f} | {100 * s / wall:.0f}% | {100 * inside / max(s, 1e-12):.0f}% |")
     serial = wall - loop_wall
     print(f"serial (outside every parallel loop): {serial:.3f} s = {100 * serial / wall:.1f}% of the call")
+    by_loop = {}
+    for name, _, tasks in loops:
+        by_loop[name] = by_loop.get(name, 0.0) + sum(tasks)
+    print("one-thread seconds by parallel loop: " + ", ".join(
+        f"{name} {t:.3f}" for name, t in sorted(by_loop.items(), key=lambda kv: -kv[1])))
     # A P-thread call builds P slices at once (memory allowing): its loops have more
     # tasks. Profile that structure on one thread for each P, schedule its tasks on P.
     speedups, where = [], ""
@@ -244,6 +270,7 @@ def main(argv=None) -> int:
               f"cv2.SIFT centre view {statistics.median(t['sift']):.3f}")
         print(f"LiFF / cv2.SIFT = {median_ratio(t['liff'], t['sift']):.2f}; with firstOctave=0: "
               f"{median_ratio(t['liff0'], t['sift']):.2f}")
+        survey_cost(default, lf, rounds)
 
         def threads(n):
             def run():

@@ -211,6 +211,52 @@ def _smooth_texture(shape, seed: int, blur: float) -> np.ndarray:
     return texture / max(float(texture.max()), 1e-6)
 
 
+def textured_plane(shape: Tuple[int, int, int, int] = (3, 3, 256, 256), slope: float = 1.0,
+                   seed: int = 0, blur: float = 2.0) -> np.ndarray:
+    """A fronto-parallel textured plane at ``slope`` whose world continues beyond the
+    frame, as a camera array or gantry sees it: each view is a window onto a texture
+    larger than the frame, so a view's border shows content its neighbours show inside
+    (unlike :func:`textured_layers`, which reflects at the borders).
+
+    Parameters
+    ----------
+    shape : (T, S, V, U)
+        Views and view size, pixels.
+    slope : float
+        Pixels per view step; centre-view content (x, y) appears at
+        ``(x - slope (s - s_c), y - slope (t - t_c))`` in view (t, s).
+    seed : int
+        Seed of the texture (uniform noise).
+    blur : float
+        Gaussian sigma of the texture, pixels.
+
+    Returns
+    -------
+    light_field : ndarray of float32, shape (T, S, V, U), values in [0, 1]
+        Each view warped bilinearly from the texture (not analytically).
+
+    Raises
+    ------
+    ValueError
+        For a shape entry below 1 or a non-finite slope.
+    """
+    import cv2
+
+    T, S, V, U = _check_shape(shape)
+    if not np.isfinite(slope):
+        raise ValueError(f"slope = {slope}; expected a finite value, pixels per view step")
+    margin = int(np.ceil(abs(slope) * max(T, S))) + 8
+    texture = _smooth_texture((V + 2 * margin, U + 2 * margin), seed, blur)
+    lf = np.empty((T, S, V, U), np.float32)
+    for t in range(T):
+        for s in range(S):
+            dx, dy = -slope * (s - (S - 1) / 2), -slope * (t - (T - 1) / 2)
+            warp = np.float32([[1, 0, margin - dx], [0, 1, margin - dy]])
+            lf[t, s] = cv2.warpAffine(texture, warp, (U, V),
+                                      flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP)
+    return lf
+
+
 def textured_layers(
     shape: Tuple[int, int, int, int] = (9, 9, 128, 128),
     slopes: Tuple[float, float, float] = (-0.6, 0.1, 0.7),

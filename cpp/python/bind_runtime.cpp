@@ -39,6 +39,10 @@ void BindAllocation(py::module_& m) {
         "freed, and nothing is kept from then on).");
   m.def("getWorkingMemoryReuse", &getWorkingMemoryReuse,
         "Whether the core keeps working memory between calls (setWorkingMemoryReuse).");
+  m.def("availableMemoryBytes", &availableMemoryBytes,
+        "Bytes of physical memory this process can still use, as the detector's default\n"
+        "memory limit counts them: MemAvailable, capped by the room under the cgroup's\n"
+        "limit, plus the working memory kept for reuse; 0 when unknown (no automatic limit).");
 }
 
 void BindVersion(py::module_& m) {

@@ -1,5 +1,7 @@
 #include "working_memory.hpp"
 
+#include "memory.hpp"
+
 #include <liff/liff.hpp>
 #include <opencv2/core.hpp>
 
@@ -196,6 +198,8 @@ void releaseWorkingMemory() {
 }
 
 size_t keptWorkingMemoryBytes() { return detail::allocator().keptBytes(); }
+
+double availableMemoryBytes() { return detail::availableMemoryBytes(); }
 
 void setWorkingMemoryReuse(bool enabled) {
   std::lock_guard<std::mutex> lock(detail::settingMutex);

@@ -5,8 +5,8 @@ One mechanism serves the readers (``liff.io``) and the detector (``liff.cli.comm
 make_detector``): when :data:`memory_budget_bytes` is set (``liff.batch`` sets it on a
 Dask worker from the worker's memory limit), the room is that budget less what the
 process holds now (:func:`held_bytes`); otherwise it is the memory available now, as
-LiFF's core counts it for its default limit (``MemAvailable`` from ``/proc/meminfo``,
-capped by the room under the cgroup's limit; ``cpp/src/memory.cpp``).
+LiFF's core counts it for its default limit (``liff._core.availableMemoryBytes``:
+``MemAvailable`` capped by the room under the cgroup's limit; ``cpp/src/memory.cpp``).
 
 Readers call :func:`check_fits` with the size a file's header states *before* they
 allocate or inflate anything, so that a small file claiming a huge light field is a
@@ -16,7 +16,6 @@ that takes the machine down.
 
 from __future__ import annotations
 
-import math
 from typing import Optional, Sequence, Tuple
 
 #: Bytes this process may hold while a detector made here runs, its input included
@@ -36,60 +35,14 @@ def held_bytes() -> int:
     return max(0, psutil.Process().memory_info().rss - keptWorkingMemoryBytes())
 
 
-def _first_number(path: str) -> Optional[float]:
-    """The first word of a file as a number; None if absent, unreadable or "max"."""
-    try:
-        with open(path) as f:
-            word = f.read(64).split()[0]
-        return float(word)
-    except (OSError, IndexError, ValueError):
-        return None
-
-
-def _stat_value(path: str, key: str) -> float:
-    """The value of ``key`` in a cgroup memory.stat file, or 0."""
-    try:
-        with open(path) as f:
-            for line in f:
-                name, _, value = line.partition(" ")
-                if name == key:
-                    return float(value)
-    except (OSError, ValueError):
-        pass
-    return 0.0
-
-
-def _cgroup_room() -> Optional[float]:
-    """Room left under this process's cgroup memory limit (v2, then v1), or None."""
-    for limit_file, usage_file, stat_file, inactive, no_limit in (
-            ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current",
-             "/sys/fs/cgroup/memory.stat", "inactive_file", math.inf),
-            ("/sys/fs/cgroup/memory/memory.limit_in_bytes",
-             "/sys/fs/cgroup/memory/memory.usage_in_bytes",
-             "/sys/fs/cgroup/memory/memory.stat", "total_inactive_file", 1e18)):
-        limit = _first_number(limit_file)
-        if limit is not None and 0 < limit < no_limit:
-            used = (_first_number(usage_file) or 0.0) - _stat_value(stat_file, inactive)
-            return max(1.0, limit - max(0.0, used))
-    return None
-
-
 def available_bytes() -> Optional[int]:
-    """The memory available now, as LiFF's core counts it: ``MemAvailable`` capped by the
-    cgroup's room; None where neither can be read (no bound)."""
-    available = None
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    available = float(line.split()[1]) * 1024
-                    break
-    except (OSError, ValueError, IndexError):
-        pass
-    room = _cgroup_room()
-    if room is not None:
-        available = room if available is None else min(available, room)
-    return None if available is None else int(available)
+    """The memory available now, as LiFF's core counts it for its default limit
+    (``liff._core.availableMemoryBytes``: MemAvailable capped by the cgroup's room, plus
+    the working memory the core keeps); None where it cannot be read (no bound)."""
+    from ._core import availableMemoryBytes
+
+    available = availableMemoryBytes()
+    return int(available) if available > 0 else None
 
 
 def room_bytes() -> Tuple[Optional[int], str]:

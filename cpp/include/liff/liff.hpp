@@ -50,6 +50,11 @@ void releaseWorkingMemory();
 size_t keptWorkingMemoryBytes();
 void setWorkingMemoryReuse(bool enabled);
 bool getWorkingMemoryReuse();
+/// Bytes of physical memory this process can still use, as the detector's default
+/// memory limit counts them: on Linux MemAvailable (/proc/meminfo), capped by the room
+/// under the cgroup's (v2 or v1) limit, plus the working memory kept for reuse; 0 when
+/// unknown (other systems: no automatic limit).
+double availableMemoryBytes();
 
 /// LiFF detector and descriptor: SIFT extended to the 4-D light field.
 ///

@@ -189,3 +189,23 @@ def test_generators_take_the_smallest_shapes_and_check_the_rest():
         synthetic.render_disks([], (1, 1, 8, 8), profile="square")
     with pytest.raises(ValueError, match="at least 1 disk"):
         synthetic.paper_disks(n=0)
+
+
+def test_textured_plane_views_are_windows_onto_one_world():
+    """View (t, s) shows centre-view content (x, y) at (x - m (s - s_c), y - m (t - t_c)),
+    and beyond the centre view's frame the world goes on (no reflected border)."""
+    from liff.synthetic import textured_plane
+
+    lf = textured_plane((3, 3, 40, 50), 2.0, seed=4)
+    assert lf.shape == (3, 3, 40, 50) and lf.dtype == np.float32
+    assert 0 <= lf.min() and lf.max() <= 1
+    centre = lf[1, 1]
+    np.testing.assert_allclose(lf[1, 2][:, :-2], centre[:, 2:], atol=1e-6)  # s - s_c = 1
+    np.testing.assert_allclose(lf[0, 1][2:, :], centre[:-2, :], atol=1e-6)  # t - t_c = -1
+    # The columns that view (1, 2) shows beyond the centre view's right border are new
+    # content, not the centre view's last columns mirrored.
+    assert not np.allclose(lf[1, 2][:, -2:], centre[:, -2:][:, ::-1], atol=1e-3)
+    with pytest.raises(ValueError, match="slope"):
+        textured_plane((3, 3, 40, 50), float("nan"))
+    with pytest.raises(ValueError):
+        textured_plane((0, 3, 40, 50), 1.0)

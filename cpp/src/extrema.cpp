@@ -94,14 +94,6 @@ DogDerivatives dogDerivatives(const ScaleSpace& space, int o, int layer, int r, 
   return d;
 }
 
-bool seenByEveryView(cv::Point2f pt, double slope, cv::Size viewGrid, cv::Size viewSize) {
-  // The outermost views shift the point by |slope| (S - 1) / 2 and |slope| (T - 1) / 2.
-  const double rx = std::abs(slope) * (viewGrid.width - 1) / 2;
-  const double ry = std::abs(slope) * (viewGrid.height - 1) / 2;
-  return pt.x - rx >= 0 && pt.x + rx <= viewSize.width - 1 && pt.y - ry >= 0 &&
-         pt.y + ry <= viewSize.height - 1;
-}
-
 bool refine(const ScaleSpace& space, int o, const DetectParams& params, int r, int c, int layer,
             Refined& out) {
   const int layers = space.layers;
@@ -243,9 +235,6 @@ std::vector<cv::KeyPoint> findKeypoints(const SliceNeighbourhood& slices,
     kp.response = std::abs(e.contrast);
     const double slope = slices.slope + subSlopeOffset(slices, o, e) * slices.slopeStep;
     kp.class_id = slopeToClassId(slope);
-    if (!slices.viewSize.empty() &&
-        !seenByEveryView(kp.pt, slope, slices.viewGrid, slices.viewSize))
-      return;
 
     // Orientations: every histogram peak within 80% of the highest.
     const float highest = orientationHistogram(

@@ -27,17 +27,7 @@ struct SliceNeighbourhood {
   const ScaleSpace* above = nullptr;
   double slope = 0;      // slope of slice k
   double slopeStep = 0;  // spacing of the slope grid (0 for a single slice)
-  cv::Size viewGrid{1, 1};  // the light field's views, S x T (width: views per row)
-  cv::Size viewSize;        // one view, U x V pixels (empty: no check, as in the tests)
 };
-
-/// Whether every view of a viewGrid.width x viewGrid.height light field sees the
-/// centre-view point `pt` at `slope`: view (t, s) sees it at
-/// pt - slope (s - s_c, t - t_c), which must lie in [0, U - 1] x [0, V - 1]. Where it
-/// does not, the focal slice averages fewer views there, which are as sharp at a wrong
-/// slope as at the right one: a feature found there is read as structure at a slope
-/// it does not have (the survey's coherence test drops such features by the same rule).
-bool seenByEveryView(cv::Point2f pt, double slope, cv::Size viewGrid, cv::Size viewSize);
 
 /// One unit of the extrema search: rows [rowBegin, rowEnd) of DoG layer `layer`
 /// of octave `o` of one slice. Tasks split the work evenly across threads; their

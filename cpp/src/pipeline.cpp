@@ -70,8 +70,6 @@ std::vector<std::vector<cv::KeyPoint>> searchSlices(const Call& call, const Slic
       slices.above = target.above;
       slices.slope = call.plan.slopes[target.slice];
       slices.slopeStep = call.plan.step;
-      slices.viewGrid = cv::Size(call.lf.S, call.lf.T);
-      slices.viewSize = call.lf.viewSize();
       StageTimer timer(kExtrema);
       found[j] = findKeypoints(slices, params, mask, jobs[j].task);
     }

@@ -387,23 +387,3 @@ TEST(FindKeypoints, ExtremumLosingToOneNeighbourInTheSliceAboveOrBelowIsNotFound
 }
 
 }  // namespace
-
-// A centre-view point at slope m is seen at x - m (s - s_c) in view s: every view sees it
-// when |m| (S - 1) / 2 <= x <= U - 1 - |m| (S - 1) / 2, and alike in y with T.
-TEST(ViewBorders, EveryViewSeesThePointOnlyInsideTheBandsItsSlopeLeaves) {
-  using liff::detail::seenByEveryView;
-  const cv::Size grid(5, 3), size(100, 80);  // S = 5 (s_c = 2), T = 3 (t_c = 1)
-  EXPECT_TRUE(seenByEveryView({6.f, 3.f}, 3.0, grid, size));    // x - 6 = 0, y - 3 = 0
-  EXPECT_FALSE(seenByEveryView({5.9f, 40.f}, 3.0, grid, size));
-  EXPECT_FALSE(seenByEveryView({50.f, 2.9f}, -3.0, grid, size));
-  EXPECT_TRUE(seenByEveryView({93.f, 76.f}, -3.0, grid, size));  // 99 - 6, 79 - 3
-  EXPECT_FALSE(seenByEveryView({93.1f, 40.f}, 3.0, grid, size));
-  EXPECT_FALSE(seenByEveryView({50.f, 76.1f}, 3.0, grid, size));
-  // One view (or slope 0): the whole view.
-  EXPECT_TRUE(seenByEveryView({0.f, 0.f}, 7.0, cv::Size(1, 1), size));
-  EXPECT_TRUE(seenByEveryView({99.f, 79.f}, 0.0, grid, size));
-  // A row of views (T = 1) bounds x only; a column (S = 1) y only.
-  EXPECT_TRUE(seenByEveryView({50.f, 0.f}, 4.0, cv::Size(9, 1), size));
-  EXPECT_FALSE(seenByEveryView({15.f, 40.f}, 4.0, cv::Size(9, 1), size));
-  EXPECT_TRUE(seenByEveryView({0.f, 40.f}, 4.0, cv::Size(1, 9), size));
-}

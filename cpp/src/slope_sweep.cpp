@@ -101,17 +101,27 @@ Sampling sampling(const Compared& c, double m) {
 }
 
 // out[x] += |view[x] - ref[x]|: a compared view's residual where it samples whole pixels.
-LIFF_HOT_LOOP void addResidualRow(const float* view, const float* ref, int width, float* out) {
-  for (int x = 0; x < width; ++x) out[x] += std::abs(view[x] - ref[x]);
+// The first view's (`first`) starts the sum from 0 without reading `out` (0 + r is r).
+LIFF_HOT_LOOP void addResidualRow(const float* view, const float* ref, int width, bool first,
+                                  float* out) {
+  if (first)
+    for (int x = 0; x < width; ++x) out[x] = std::abs(view[x] - ref[x]);
+  else
+    for (int x = 0; x < width; ++x) out[x] += std::abs(view[x] - ref[x]);
 }
 
 // out[x] += |w0 (view - ref)[x] + w1 (viewFar - refFar)[x]|: its residual between the
-// near and the far samples.
+// near and the far samples (`first` as above).
 LIFF_HOT_LOOP void addInterpolatedResidualRow(const float* view, const float* ref,
                                               const float* viewFar, const float* refFar,
-                                              float w0, float w1, int width, float* out) {
-  for (int x = 0; x < width; ++x)
-    out[x] += std::abs(w0 * (view[x] - ref[x]) + w1 * (viewFar[x] - refFar[x]));
+                                              float w0, float w1, int width, bool first,
+                                              float* out) {
+  if (first)
+    for (int x = 0; x < width; ++x)
+      out[x] = std::abs(w0 * (view[x] - ref[x]) + w1 * (viewFar[x] - refFar[x]));
+  else
+    for (int x = 0; x < width; ++x)
+      out[x] += std::abs(w0 * (view[x] - ref[x]) + w1 * (viewFar[x] - refFar[x]));
 }
 
 // Folds one row of slope k's window costs c into the votes' row, columns [begin, end).
@@ -155,8 +165,8 @@ bool slopeCost(const cv::Mat& reference, const std::vector<Compared>& views, dou
   scratch.boxed.create(reference.size(), CV_32F);
   cv::Mat cost = scratch.cost(cv::Rect(cv::Point(0, 0), roi.size()));
   cv::Mat boxed = scratch.boxed(cv::Rect(cv::Point(0, 0), roi.size()));
-  cost.setTo(0);
   for (const Compared& c : views) {
+    const bool first = &c == &views.front();  // its residuals start each pixel's sum
     const Sampling at = sampling(c, m);
     const float w0 = 1 - at.f, w1 = at.f;
     for (int y = 0; y < roi.height; ++y) {
@@ -165,13 +175,13 @@ bool slopeCost(const cv::Mat& reference, const std::vector<Compared>& views, dou
       const float* view = c.values.ptr<float>(c.alongX ? row : row - at.i) + roi.x - (c.alongX ? at.i : 0);
       const float* ref = reference.ptr<float>(row) + roi.x;
       if (at.f == 0) {
-        addResidualRow(view, ref, roi.width, out);
+        addResidualRow(view, ref, roi.width, first, out);
         continue;
       }
       // The far samples: the previous pixel of the row, or the previous row.
       const float* viewFar = c.alongX ? view - 1 : c.values.ptr<float>(row - at.i - 1) + roi.x;
       const float* refFar = c.alongX ? ref - 1 : reference.ptr<float>(row - 1) + roi.x;
-      addInterpolatedResidualRow(view, ref, viewFar, refFar, w0, w1, roi.width, out);
+      addInterpolatedResidualRow(view, ref, viewFar, refFar, w0, w1, roi.width, first, out);
     }
   }
   // (Its sums run left to right and top to bottom: a pixel's value depends on the

@@ -4,10 +4,11 @@ pycolmap is a test dependency (the ``test`` extra): these tests fail, not skip, 
 """
 
 import os
+from pathlib import Path
 
 import cv2
 import numpy as np
-import pycolmap  # noqa: F401  - a missing pycolmap must fail here, loudly
+import pycolmap  # a missing pycolmap must fail here, loudly
 import pytest
 
 import liff
@@ -70,11 +71,76 @@ def test_keypoint_orientation_and_scale():
                  cv2.KeyPoint(5.0, 6.0, 2.0, 270.0)]
     out = colmap.keypoints_to_colmap(keypoints)
     assert out.dtype == np.float32 and out.shape == (3, 4)
-    # 90 degrees counter-clockwise on screen (y up) is -pi/2 in y-down image coordinates.
-    assert out[0] == pytest.approx([10.5, 20.5, 4.0, -np.pi / 2])
+    # cv2's 90 degrees (towards +y, image coordinates) is COLMAP's pi/2; 270 is -pi/2.
+    assert out[0] == pytest.approx([10.5, 20.5, 4.0, np.pi / 2])
     assert out[1] == pytest.approx([0.5, 0.5, 1.5, 0.0])  # no orientation
-    assert out[2, 3] == pytest.approx(np.pi / 2)
+    assert out[2, 3] == pytest.approx(-np.pi / 2)
     assert colmap.keypoints_to_colmap([]).shape == (0, 4)
+
+
+def _colmaps_own_keypoints(image, tmp_path):
+    """COLMAP's SIFT on ``image`` (uint8 grey), read back from its database as
+    (x, y, scale, orientation), the way COLMAP's matcher reads liff's."""
+    (tmp_path / "images").mkdir()
+    cv2.imwrite(str(tmp_path / "images" / "a.png"), image)
+    options = pycolmap.FeatureExtractionOptions()
+    options.num_threads = 1
+    pycolmap.extract_features(tmp_path / "own.db", tmp_path / "images", extraction_options=options,
+                              device=pycolmap.Device.cpu)
+    with pycolmap.Database.open(str(tmp_path / "own.db")) as db:
+        affine = db.read_keypoints(db.read_all_images()[0].image_id)  # x, y, a11, a12, a21, a22
+    return np.c_[affine[:, :2], np.hypot(affine[:, 2], affine[:, 4]), np.arctan2(affine[:, 4], affine[:, 2])]
+
+
+def _orientation_differences(ours, theirs):
+    """For each of ``ours`` (COLMAP rows) with a keypoint of ``theirs`` within 0.5 px and
+    5% in scale: the smallest orientation difference (radians) to one of those."""
+    from scipy.spatial import cKDTree
+
+    near = cKDTree(theirs[:, :2]).query_ball_point(ours[:, :2], 0.5)
+    out = []
+    for row, candidates in zip(ours, near):
+        same = [j for j in candidates if abs(np.log(theirs[j, 2] / row[2])) < 0.05]
+        if same:
+            turn = (theirs[same, 3] - row[3] + np.pi) % (2 * np.pi) - np.pi
+            out.append(np.abs(turn).min())
+    return np.array(out)
+
+
+def _textures():
+    """Blurred noise at two sizes, a rotated copy, and a real view when the HCI data is
+    here: images of more than one size and content."""
+    rng = np.random.default_rng(7)
+    images = []
+    for shape, blur in (((240, 320), 3.0), ((180, 150), 2.0)):
+        image = cv2.GaussianBlur(rng.random(shape).astype(np.float32), (0, 0), blur)
+        images.append(cv2.normalize(image, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8))
+    turn = cv2.getRotationMatrix2D((160, 120), 30, 1.0)  # 30 degrees counter-clockwise
+    yield from images
+    yield cv2.warpAffine(images[0], turn, (320, 240))
+    cotton = Path(__file__).resolve().parents[1].parent / "shared/data/hci/cotton/input_Cam040.png"
+    if cotton.is_file():
+        yield cv2.imread(str(cotton), cv2.IMREAD_GRAYSCALE)[128:384, 128:384]
+
+
+@pytest.mark.parametrize("index", range(4))
+def test_orientations_agree_with_colmaps_own_sift(index, tmp_path):
+    """Keypoints converted by keypoints_to_colmap point the way COLMAP's own SIFT
+    points at the same place and scale (issue 26: they were mirrored, a median 68 degrees
+    off), for cv2.SIFT's keypoints and liff's."""
+    images = list(_textures())
+    if index >= len(images):
+        pytest.skip("HCI 'cotton' not found")
+    image = images[index]
+    theirs = _colmaps_own_keypoints(image, tmp_path)
+    for detector in (cv2.SIFT_create(contrastThreshold=0.02), liff.LiFF.create()):
+        ours = colmap.keypoints_to_colmap(detector.detect(image, None))
+        turn = _orientation_differences(ours, theirs)
+        assert len(turn) >= 20, type(detector)
+        assert np.degrees(np.median(turn)) < 5, type(detector)
+        # The mirrored convention would be far off on the same keypoints.
+        mirrored = _orientation_differences(ours * [1, 1, 1, -1], theirs)
+        assert np.degrees(np.median(mirrored)) > 30
 
 
 def test_reconstruction_of_an_easy_scene(scene, reconstructed):

@@ -34,7 +34,8 @@ float orientationHistogram(const cv::Mat& image, cv::Point centre, int radius, f
                            float* hist);
 
 /// Raw (unnormalised) 4x4x8 descriptor at `point` (sub-pixel, image coordinates),
-/// rotated by `angleDegrees` (counter-clockwise, image y down as cv::SIFT), of a
+/// rotated by `angleDegrees` (counter-clockwise as seen on screen: 360 minus the
+/// keypoint's angle, as cv::SIFT), of a
 /// keypoint of scale `scale` (sigma in this image's pixels).
 void rawDescriptor(const cv::Mat& image, cv::Point2f point, float angleDegrees, float scale,
                    float* raw);

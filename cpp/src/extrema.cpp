@@ -250,6 +250,8 @@ std::vector<cv::KeyPoint> findKeypoints(const SliceNeighbourhood& slices,
         float bin = j + 0.5f * (hist[left] - hist[right]) /
                             (hist[left] - 2 * hist[j] + hist[right]);
         bin = bin < 0 ? n + bin : bin >= n ? bin - n : bin;
+        // The histogram's angles run counter-clockwise on screen (y up); the
+        // keypoint's, as cv::SIFT's, clockwise on screen (image coordinates, y down).
         kp.angle = 360.f - (360.f / n) * bin;
         if (std::abs(kp.angle - 360.f) < FLT_EPSILON) kp.angle = 0.f;
         keypoints.push_back(kp);

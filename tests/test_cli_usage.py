@@ -134,6 +134,16 @@ def test_sfm_takes_a_folder_and_says_when_images_are_left_out(poses, tmp_path, c
     assert main(["sfm", str(mixed), "--workspace", str(tmp_path / "ws2"), "--preprocess"]) == 1
     out, err = capsys.readouterr()
     assert "5 images" in out and "only 4 of 5 images registered" in err
+    # Issue 26 item 7: each left-out capture is named, with why.
+    assert re.search(r"unrelated\.npz \(image unrelated\.png\): no verified match", err)
+    assert "pose00.npz" not in err
+    blank = np.zeros((3, 3, 120, 160), np.uint8)  # a capture with no features
+    os.remove(mixed / "unrelated.npz")
+    np.save(mixed / "blank.npy", blank)
+    assert main(["sfm", str(mixed), "--workspace", str(tmp_path / "ws3"), "--preprocess"]) == 1
+    err = capsys.readouterr().err
+    assert "only 4 of 5 images registered" in err
+    assert re.search(r"blank\.npy \(image blank\.png\): no features \(0 keypoints\)", err)
 
 
 def test_colmap_log_is_quiet(poses, tmp_path, capfd):

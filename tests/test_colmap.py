@@ -343,3 +343,33 @@ def test_prepare_light_field_is_prepare_in_8_bits(shape):
     assert grey.dtype == np.uint8
     with pytest.raises(ValueError, match=r"input of shape \(3, 3, 40, 50, 5\)"):
         colmap.prepare_light_field(np.zeros((3, 3, 40, 50, 5)))
+
+
+def test_left_out_images_are_named_with_their_reason(scene, reconstructed, tmp_path):
+    """Issue 26 item 7: a capture with no features, and one of another scene, are named
+    with why they are not in the model; the registered ones are not listed."""
+    cap, images = scene
+    database, _, _, result = reconstructed
+    assert colmap.left_out_images(database, result) == []
+    blank = np.full_like(images[0].image, 128)
+    rng = np.random.default_rng(3)
+    noise = cv2.GaussianBlur(rng.random(blank.shape).astype(np.float32), (0, 0), 2.0)
+    other = cv2.normalize(noise, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
+    sift = cv2.SIFT.create(**THRESHOLDS)
+    extra = [colmap.FeatureImage("blank.png", blank, (), None),
+             colmap.FeatureImage("other.png", other, *sift.detectAndCompute(other, None))]
+    k = cap.intrinsics
+    database = tmp_path / "database.db"
+    colmap.write_database(database, tmp_path / "images", [*images[:2], extra[0], *images[2:], extra[1]],
+                          focal=k.focal, principal_point=(k.cx, k.cy))
+    colmap.match(database)
+    result = colmap.reconstruct(database, tmp_path / "images", tmp_path / "sparse", mapper="default")
+    assert result.best.num_reg_images() == 4
+    left_out = dict(colmap.left_out_images(database, result))
+    assert list(left_out) == ["blank.png", "other.png"]
+    assert left_out["blank.png"] == "no features (0 keypoints)"
+    assert left_out["other.png"].startswith("no verified match with any other image")
+    # Without a model, every image is left out, each with its reason.
+    everything = dict(colmap.left_out_images(database, None))
+    assert len(everything) == 6 and everything["blank.png"] == left_out["blank.png"]
+    assert "but not registered" in everything["pose0.png"]

@@ -774,6 +774,77 @@ def table_metrics(database_path: PathLike, result: Optional[SfmResult] = None) -
     }
 
 
+def left_out_images(database_path: PathLike, result: Optional[SfmResult] = None) -> List[Tuple[str, str]]:
+    """Each image of the database outside the largest model, with why, in database order.
+
+    The first reason that holds, checked in the order a feature goes through the pipeline:
+
+    - ``"no features (0 keypoints)"``: nothing to match (a blank or featureless capture,
+      or thresholds too strict for it);
+    - ``"no verified match with any other image"``: its keypoints matched no other image
+      well enough for two-view geometry (the most putative matches with one image are
+      named; too little overlap, or another scene);
+    - ``"in another model"``: COLMAP put it in a smaller model, not joined to the
+      largest (the images it was verified with are in that model too);
+    - ``"verified with ... but not registered"``: it has verified pairs (the strongest is
+      named), but the mapper could not register it (too few of those inliers seen in the
+      model's 3-D points, or too little baseline).
+
+    Parameters
+    ----------
+    database_path : str or os.PathLike
+        A database that :func:`write_database` wrote and :func:`match` or
+        :func:`match_by_pose` matched.
+    result : SfmResult, optional
+        What :func:`reconstruct` or :func:`reconstruct_from_poses` returned; without one
+        (or without a model) every image is left out.
+
+    Returns
+    -------
+    list of (str, str)
+        (image name, reason) for each image not in ``result.best``; empty when all are in.
+    """
+    best = result.best if result is not None else None
+    registered = {best.image(i).name for i in best.reg_image_ids()} if best is not None else set()
+    others = [{model.image(i).name for i in model.reg_image_ids()}
+              for model in (result.reconstructions.values() if result is not None else ())
+              if model is not best]
+    with pycolmap.Database.open(_require_database(database_path)) as db:
+        images = {im.image_id: im.name for im in db.read_all_images()}
+        keypoints = {i: db.num_keypoints_for_image(i) for i in images}
+        matched = {i: {} for i in images}   # image id -> {other name: putative matches}
+        verified = {i: {} for i in images}  # image id -> {other name: inlier matches}
+        for i, j in combinations(sorted(images), 2):
+            putative = db.read_matches(i, j).shape[0] if db.exists_matches(i, j) else 0
+            inliers = (db.read_two_view_geometry(i, j).inlier_matches.shape[0]
+                       if db.exists_two_view_geometry(i, j) else 0)
+            for a, b in ((i, j), (j, i)):
+                if putative:
+                    matched[a][images[b]] = putative
+                if inliers:
+                    verified[a][images[b]] = inliers
+    out = []
+    for i, name in sorted(images.items()):
+        if name in registered:
+            continue
+        if keypoints[i] == 0:
+            reason = "no features (0 keypoints)"
+        elif not verified[i]:
+            most = max(matched[i].items(), key=lambda kv: kv[1], default=None)
+            reason = (f"no verified match with any other image ({keypoints[i]} keypoints; "
+                      + (f"the most putative matches, {most[1]}, with {most[0]}" if most
+                         else "no putative matches") + ")")
+        elif any(name in model for model in others):
+            size = next(len(model) for model in others if name in model)
+            reason = f"in another model of {size} images, not joined to the largest"
+        else:
+            strongest = max(verified[i].items(), key=lambda kv: kv[1])
+            reason = (f"verified with {len(verified[i])} image(s) (the most inliers, {strongest[1]}, "
+                      f"with {strongest[0]}) but not registered by the mapper")
+        out.append((name, reason))
+    return out
+
+
 # --- metric scale ----------------------------------------------------------------------
 
 #: metric_scale: a pair's baseline counts only when its relative standard deviation

@@ -280,5 +280,9 @@ def run_sfm(args: argparse.Namespace) -> int:
         hint = ("no metric pose links them to the others" if mapper == "poses"
                 else "try --mapper permissive, or more overlap between poses")
         print(f"liff sfm: only {registered} of {result.num_images} images registered; the others "
-              f"are not in the model ({hint})", file=sys.stderr)
+              f"are not in the model ({hint}):", file=sys.stderr)
+    if registered < result.num_images:  # each left-out image and why (all when no model)
+        inputs = {common.output_name(path, ".png"): path for path in args.paths}
+        for name, reason in colmap.left_out_images(database, result):
+            print(f"  {inputs.get(name, name)} (image {name}): {reason}", file=sys.stderr)
     return 1 if failures or registered < result.num_images else 0

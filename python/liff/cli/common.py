@@ -27,46 +27,40 @@ FILE_ENDINGS = IMAGE_SUFFIXES + (".npz", ".npy", ".db")
 
 
 def add_reader_options(parser: argparse.ArgumentParser) -> None:
+    """``--format``, one flag per reader option and ``--preprocess``, from the format
+    registry (liff.io.formats: choices, help and the formats each option applies to)."""
+    from ..io.formats import FORMATS, OPTIONS, flag_help, format_help
+
     group = parser.add_argument_group("reading light fields (docs/INPUTS.md)")
-    group.add_argument("--format", default=None,
-                       help="hci, views, eslf, mosaic, npy, npz, mat or hdf5 (default: from the "
-                            "path)")
-    group.add_argument("--grid", type=int, nargs=2, metavar=("T", "S"), default=None,
-                       help="view grid (mosaics; overrides what view names say)")
-    group.add_argument("--lenslet", type=int, default=None, metavar="N",
-                       help="lenslet size of an ESLF image (default: detected from the image; "
-                            "14 in the Stanford Lytro archive, 15 from the Light Field Toolbox)")
-    group.add_argument("--keep-views", type=int, default=None, metavar="K",
-                       help="ESLF: keep the centre K x K views (e.g. 11 of a Lytro's 14)")
-    group.add_argument("--pattern", default=None,
-                       help="views: regex with named groups t and s (or index) for the file names")
-    group.add_argument("--key", default=None,
-                       help="npz, mat, hdf5: the array, variable or dataset holding the light field")
-    group.add_argument("--bit-depth", type=int, default=None, metavar="B",
-                       help="the values are B-bit (e.g. 10 or 12 for sensor data in 16-bit files, "
-                            "8 for floats in 0..255): rescale them to the dtype's range")
-    group.add_argument("--preprocess", action="store_true",
-                       help="the paper's SfM preprocessing: luminance, gamma 0.5, "
-                            "histogram equalisation")
+    group.add_argument("--format", default=None, choices=list(FORMATS), metavar="FORMAT",
+                       help=format_help())
+    for option in OPTIONS.values():
+        group.add_argument(option.flag, dest=reader_dest(option.flag), type=option.type,
+                           nargs=option.nargs, metavar=option.metavar, default=None,
+                           help=flag_help(option))
+    group.add_argument("--preprocess", action="store_true", help=PREPROCESS_HELP)
+
+
+#: --preprocess's help: what the README says of liff.preprocess.prepare
+PREPROCESS_HELP = ("the paper's SfM preprocessing: luminance, gamma 0.5, one histogram "
+                   "stretch over the whole light field (off unless asked for)")
+
+
+def reader_dest(flag: str) -> str:
+    """The attribute argparse keeps a flag's value in: ``--keep-views`` -> ``keep_views``."""
+    return flag[2:].replace("-", "_")
 
 
 def reader_options(args: argparse.Namespace) -> dict:
-    """Keyword arguments for liff.io.read_light_field from the parsed options."""
-    options = {}
-    if args.format:
-        options["format"] = args.format
-    if args.grid:
-        options["grid"] = tuple(args.grid)
-    if args.lenslet:
-        options["n"] = args.lenslet
-    if args.keep_views:
-        options["keep"] = args.keep_views
-    if args.pattern:
-        options["pattern"] = args.pattern
-    if args.key:
-        options["key"] = args.key
-    if args.bit_depth is not None:
-        options["bit_depth"] = args.bit_depth
+    """Keyword arguments for liff.io.read_light_field from the parsed options (those
+    given: the format and each reader option of the registry)."""
+    from ..io.formats import OPTIONS
+
+    options = {"format": args.format} if getattr(args, "format", None) else {}
+    for option in OPTIONS.values():
+        given = getattr(args, reader_dest(option.flag), None)
+        if given is not None:
+            options[option.keyword] = option.value(given)
     return options
 
 
@@ -155,41 +149,34 @@ def slope_bound(text: str) -> float:
     return value
 
 
-class _Probe(list):
-    """A value no option has by default; iterable for options read as tuple(value)."""
-
-
 def keyword_flags() -> Dict[str, str]:
-    """Python keyword -> command-line flag for the reader options and detector
-    parameters (``keep`` -> ``--keep-views``, ``contrastThreshold`` ->
-    ``--contrast-threshold``), found by passing each flag a probe value through
-    :func:`reader_options`, so that it follows whatever options that function reads."""
+    """Python keyword -> command-line flag for the reader options (from the format
+    registry, ``keep`` -> ``--keep-views``) and detector parameters
+    (``contrastThreshold`` -> ``--contrast-threshold``)."""
+    from ..io.formats import OPTIONS
+
     flags = {p.name: option_name(p.name) for p in PARAMETERS}
-    parser = argparse.ArgumentParser()
-    add_reader_options(parser)
-    actions = [a for a in parser._actions if a.option_strings and a.dest != "help"]
-    for action in actions:
-        probe = argparse.Namespace(**{a.dest: a.default for a in actions})
-        token = object()
-        setattr(probe, action.dest, _Probe([token]))
-        for keyword, value in reader_options(probe).items():
-            if value is getattr(probe, action.dest) or (isinstance(value, tuple) and token in value):
-                flags[keyword] = action.option_strings[0]
+    flags.update({o.keyword: o.flag for o in OPTIONS.values()})
     return flags
 
 
 def name_flags(message: str) -> str:
     """``message`` with the readers' and the detector's Python keywords named as the
-    command line's flags: "keep = 20" -> "--keep-views = 20", "option(s) key do not
-    apply ...; expected n, keep" -> "option(s) --key ...; expected --lenslet, --keep-views"."""
+    command line's flags: "keep = 20" -> "--keep-views = 20", "(n=N)" -> "(--lenslet N)",
+    "option(s) key do not apply ...; expected n, keep" -> "option(s) --key ...; expected
+    --lenslet, --keep-views"."""
+    from ..io.formats import OPTIONS
+
     flags = keyword_flags()
 
     def in_list(match: re.Match) -> str:
-        return re.sub(r"\w+", lambda word: flags.get(word.group(0), word.group(0)), match.group(0))
+        return re.sub(r"\w+", lambda word: OPTIONS[word.group(0)].flag
+                      if word.group(0) in OPTIONS else word.group(0), match.group(0))
 
     if " do not apply to format " in message:  # liff.io.read_light_field's option check
-        message = re.sub(r"(?<=option\(s\) )[\w, ]+(?= do not apply)", in_list, message)
-        message = re.sub(r"(?<=; expected )[\w, ]+$", in_list, message)
+        message = re.sub(r"(?<=option\(s\) ).*", in_list, message, flags=re.S)
+    for option in OPTIONS.values():  # "n=N" as the command line writes it: "--lenslet N"
+        message = re.sub(rf"(?<![\w.-]){option.keyword}=(?=\S)", option.flag + " ", message)
     for keyword, flag in flags.items():
         camel = keyword != keyword.lower()  # detector parameters: unique words, named anywhere
         pattern = rf"(?<![\w.-]){keyword}\b" + ("" if camel else r"(?= ?=| \(| \d)")

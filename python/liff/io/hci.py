@@ -18,7 +18,7 @@ import numpy as np
 
 from .._budget import array_bytes, check_fits
 from ..camera import HCI_CAMERA_KEYS, LightFieldCamera
-from ._shared import describe_missing
+from ._shared import LightFieldFile, describe_missing
 from .images import decode_image, header_size
 from .pfm import read_pfm
 from .._paths import refuse_special
@@ -148,6 +148,21 @@ def read_hci(folder: PathLike) -> HciScene:
                              f"{camera.principal_point[1] * 2 + 1:g} differs from the views' "
                              f"{first[1]}x{first[0]}")
     return HciScene(lf, disp_min, disp_max, gt, parameters, camera)
+
+
+def read_hci_light_field(folder: PathLike) -> LightFieldFile:
+    """:func:`read_hci` as every reader returns: a :class:`LightFieldFile` whose
+    ``metadata`` holds ``disp_min``, ``disp_max``, ``parameters`` and ``camera``."""
+    scene = read_hci(folder)
+    metadata = {"disp_min": scene.disp_min, "disp_max": scene.disp_max,
+                "parameters": scene.parameters, "camera": scene.camera}
+    return LightFieldFile(scene.light_field, "hci", metadata, scene.gt_disparity,
+                          os.fspath(folder))
+
+
+def is_hci_scene(names) -> bool:
+    """Whether a folder holding the files ``names`` is an HCI scene (its views' names)."""
+    return any(_VIEW.match(name) for name in names)
 
 
 def _size_differs(path: str, shape, first, how: str = "") -> ValueError:

@@ -99,6 +99,22 @@ def read_hdf5(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
     return LightFieldFile(light_field, "hdf5", metadata, None, path)
 
 
+def dataset_shapes(path: PathLike) -> Optional[list]:
+    """The shapes of the datasets in an HDF5 file (a MATLAB v7.3 file's too), from its
+    metadata alone, or None if h5py is missing or cannot open the file (the reader then
+    says what is wrong)."""
+    try:
+        import h5py
+
+        shapes: list = []
+        with h5py.File(path, "r") as f:
+            f.visititems(lambda name, node: shapes.append(node.shape)
+                         if isinstance(node, h5py.Dataset) else None)
+        return shapes
+    except Exception:  # h5py raises OSError, KeyError, ValueError, ... on damaged files
+        return None
+
+
 def check_dataset_fits(source: str, dataset) -> None:
     """Raises MemoryError naming ``source``, the dataset's shape, dtype and bytes, and
     the budget, if reading the h5py ``dataset`` would not fit the memory budget

@@ -73,6 +73,21 @@ def _indices_in_runs(folder: str, runs: Dict[str, Tuple[int, ...]]) -> Dict[str,
                      f"the others the same in every name (or pattern=...)")
 
 
+def view_names(names, pattern: Union[str, Pattern, None] = None) -> List[str]:
+    """The file names among ``names`` that :func:`read_views` takes as views: images
+    whose name carries view indices (the default rule), or names ``pattern`` matches
+    whole. Names only: nothing is opened."""
+    regex = re.compile(pattern) if isinstance(pattern, str) else pattern
+    if regex is not None:
+        return [name for name in names if regex.fullmatch(name)]
+    found = []
+    for name in names:
+        stem, suffix = os.path.splitext(name)
+        if suffix.lower() in IMAGE_SUFFIXES and NUMBER_RUN.search(stem):
+            found.append(name)
+    return found
+
+
 def _find_views(folder: str, regex: Optional[Pattern], grid, linear: bool
                 ) -> Dict[Tuple[int, int], str]:
     """{(t, s) as numbered in the names: file name} for the folder's views; with a

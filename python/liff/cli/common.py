@@ -405,7 +405,8 @@ def check_hloc_output(path: Optional[str], inputs: Sequence[str], flag: str) -> 
     try:
         import h5py
     except ImportError as error:
-        raise ImportError(f"{flag} needs h5py: pip install 'liff[hdf5]'") from error
+        raise ImportError(f"{flag} needs h5py, a dependency of liff that is not installed "
+                          "here: pip install h5py") from error
     if os.path.exists(path) and not h5py.is_hdf5(path):
         raise ValueError(f"{path}: exists and is not an HDF5 file; expected a new {flag} path "
                          "or an hloc file to add to; nothing was written")

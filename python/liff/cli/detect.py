@@ -53,7 +53,7 @@ def add_parser(sub) -> None:
                         "...-2.csv when a run of the same second has taken it)")
     p.add_argument("--hloc", default=None, metavar="FEATS.h5",
                    help="also add every output's features to this hloc features file (a group "
-                        "per light field named OUTPUT-NAME.png; pip install 'liff[hdf5]'), for "
+                        "per light field named OUTPUT-NAME.png), for "
                         "hloc's matchers, triangulation and reconstruction")
     p.add_argument("--hloc-images", default=None, metavar="DIR",
                    help="with --hloc: write each centre view here under its group's name (the "

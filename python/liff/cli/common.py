@@ -9,7 +9,6 @@ import os
 import re
 import sys
 import time
-import warnings
 from contextlib import contextmanager
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
@@ -170,7 +169,7 @@ def name_flags(message: str) -> str:
     flags = keyword_flags()
 
     def in_list(match: re.Match) -> str:
-        return re.sub(r"\w+", lambda word: OPTIONS[word.group(0)].flag
+        return re.sub(r"(?<![\w-])\w+", lambda word: OPTIONS[word.group(0)].flag
                       if word.group(0) in OPTIONS else word.group(0), match.group(0))
 
     if " do not apply to format " in message:  # liff.io.read_light_field's option check
@@ -261,97 +260,39 @@ def load_light_field(path: str, options: dict, preprocess: bool) -> np.ndarray:
     return read_input(path, options, preprocess)[0]
 
 
-def is_light_field_folder(folder: str, options: dict) -> bool:
-    """A folder is one light field (HCI scene, views) when it holds image files, unless
-    ``--format`` names a one-file format; else it is a folder of light fields."""
-    if options.get("format") not in (None, "hci", "views"):
-        return False
-    try:
-        with os.scandir(folder) as entries:
-            return any(e.is_file() and e.name.lower().endswith(IMAGE_SUFFIXES)
-                       and ".eslf." not in e.name.lower() and not e.name.startswith(".")
-                       for e in entries)
-    except OSError as error:
-        raise ValueError(f"{folder}: cannot list the folder ({error.strerror}); expected a "
-                         "readable folder of light fields or of views") from None
-
-
-def _folder_entries(folder: str, options: dict, seen: Optional[set] = None) -> List[str]:
-    """The light fields in a folder of light fields, sorted: the files liff.io recognises
-    (.npy, .npz, .mat, .h5, *.eslf.*), sub-folders that are light fields (views; see
-    :func:`is_light_field_folder`), and the light fields in the other sub-folders, at
-    any depth; hidden files and folders (partial outputs) skipped."""
-    from ..io import guess_format
-
-    seen = seen if seen is not None else set()
-    if os.path.realpath(folder) in seen:  # a link back up: a cycle
-        return []
-    seen.add(os.path.realpath(folder))
-    try:
-        names = sorted(n for n in os.listdir(folder) if not n.startswith("."))
-    except OSError as error:
-        raise ValueError(f"{folder}: cannot list the folder ({error.strerror}); expected a "
-                         "readable folder of light fields") from None
-    found: List[str] = []
-    for path in (os.path.join(folder, n) for n in names):
-        if not os.path.isdir(path):
-            if guess_format(path) is not None:
-                found.append(path)
-            continue
-        try:
-            found += [path] if is_light_field_folder(path, options) else \
-                _folder_entries(path, options, seen)
-        except ValueError as error:  # an unreadable sub-folder (lost+found): the rest go on
-            from .._warnings import LiffWarning
-
-            warnings.warn(f"{error}; skipped", LiffWarning, stacklevel=2)
-    return found
-
-
-def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] = None) -> List[str]:
+def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] = None,
+                  features: bool = False) -> List[str]:
     """The light fields that PATH arguments name: each is a light field, a folder of
-    light fields (see :func:`is_light_field_folder`) or a glob pattern (quoted, so the
-    shell left it); ``from_list`` is a text file of more, one a line (relative to the
-    current folder; blank lines and lines starting with # skipped). Repeats are dropped.
+    light fields (each entry recognised by its names and content: liff.io.layout) or a
+    glob pattern (quoted, so the shell left it); ``from_list`` is a text file of more,
+    one a line, each perhaps with reader options of its own (liff.cli.inputs). Repeats
+    are dropped.
 
     Raises
     ------
     ValueError
         Naming the pattern, folder or list file that gave no light field.
     """
-    import glob
+    from .inputs import expand
 
-    paths = list(paths)
-    if from_list:
-        refuse_special(from_list, "a text file of light field paths, one a line")
-        try:
-            with open(from_list) as f:
-                listed = [line.strip() for line in f]
-        except OSError as error:
-            raise ValueError(f"{from_list}: cannot read the list ({error.strerror}); expected "
-                             "a text file of light field paths, one a line") from None
-        paths += [line for line in listed if line and not line.startswith("#")]
-    found: List[str] = []
-    for path in paths:
-        if not os.path.exists(path) and glob.has_magic(path):
-            matches = _glob(path)
-            if not matches:
-                raise ValueError(f"{path}: no file matches the pattern; expected light fields")
-            found += matches
-        elif os.path.isdir(path) and not is_light_field_folder(path, options):
-            entries = _folder_entries(path, options)
-            if not entries:
-                raise ValueError(f"{path}: no light field in the folder; expected view images "
-                                 "(one light field) or light field files and folders")
-            found += entries
-        else:
-            found.append(path)  # the reader will say if it is not a light field
-    seen, unique = set(), []
-    for path in found:
-        if os.path.realpath(path) not in seen:
-            seen.add(os.path.realpath(path))
-            unique.append(path)
-    return unique
+    return [item.path for item in expand(paths, options, from_list, features)[0]]
+
+
+def input_options(path: str, args: argparse.Namespace) -> dict:
+    """The reader options ``path`` (one input given by itself) is read with: its
+    format as liff.io.layout tells it, and the command line's options that format
+    takes (ValueError naming a flag it does not take)."""
+    from .inputs import expand
+
+    return expand([path], reader_options(args), features=True)[0][0].options
+
+
+def shown_options(options: dict) -> str:
+    """Reader options as the command line writes them: ``--lenslet 14 --keep-views 11``
+    (the format left out)."""
+    from ..io.formats import OPTIONS
+
+    return " ".join(OPTIONS[k].shown(v) for k, v in options.items() if k in OPTIONS)
 
 
 def _glob(pattern: str) -> List[str]:
@@ -373,12 +314,18 @@ def _glob(pattern: str) -> List[str]:
                                              for name in match.relative_to(base).parts))
 
 
-def expand_args(args: argparse.Namespace, options: dict, from_list: Optional[str] = None) -> None:
-    """``args.paths`` expanded by :func:`expand_inputs`; the paths as given stay in
-    ``args.given_paths``: a folder given is an input too, so nothing is written inside it
-    (a later run over the folder would read the outputs as light fields)."""
+def expand_args(args: argparse.Namespace, options: dict, from_list: Optional[str] = None,
+                features: bool = False) -> None:
+    """``args.paths`` expanded (:func:`expand_inputs`), ``args.inputs`` the inputs with
+    their format and reader options (liff.cli.inputs.Input), ``args.left_out`` what the
+    folders held that is not an input; the paths as given stay in ``args.given_paths``:
+    a folder given is an input too, so nothing is written inside it (a later run over
+    the folder would read the outputs as light fields)."""
+    from .inputs import expand
+
     args.given_paths = list(args.paths)
-    args.paths = expand_inputs(args.paths, options, from_list)
+    args.inputs, args.left_out = expand(args.paths, options, from_list, features)
+    args.paths = [item.path for item in args.inputs]
 
 
 def protected_inputs(args: argparse.Namespace) -> List[str]:

@@ -58,7 +58,7 @@ def is_feature_file(path: str) -> bool:
 def features_of(path: str, args: argparse.Namespace) -> Features:
     if is_feature_file(path):
         return load_features(path)
-    light_field = common.load_light_field(path, common.reader_options(args), args.preprocess)
+    light_field = common.load_light_field(path, common.input_options(path, args), args.preprocess)
     detector = common.make_detector(common.detector_parameters(args))
     return features_from_light_field(detector, light_field)
 

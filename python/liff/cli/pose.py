@@ -43,7 +43,7 @@ def features_and_camera(path: str, args: argparse.Namespace):
         return load_features(path), None
     from .. import io
 
-    source = io.read_light_field(path, **common.reader_options(args))
+    source = io.read_light_field(path, **common.input_options(path, args))
     light_field = source.light_field
     if args.preprocess:
         from ..preprocess import prepare

@@ -105,3 +105,24 @@ def test_the_fuzz_targets_cover_every_format():
     for name, fmt in FORMATS.items():
         assert fmt.fuzz is not None and name in fuzzed, name
         assert os.path.isdir(os.path.join(ROOT, "fuzz", "corpus", name)), name
+
+
+def readme() -> str:
+    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
+        return " ".join(f.read().split())  # lines joined
+
+
+@pytest.mark.parametrize("command", ["detect", "pose", "colmap", "sfm"])
+def test_help_texts_say_what_the_readme_says(command):
+    """Issue 31 item 6: --preprocess said histogram equalisation (the README: one
+    histogram stretch), --last-slope's help said =-inf."""
+    from liff.cli.common import PREPROCESSING
+
+    actions = reader_group(command)
+    assert "(luminance, gamma 0.5, one histogram stretch over the whole light field)" in readme()
+    assert PREPROCESSING in actions["--preprocess"].help and PREPROCESSING in readme()
+    assert "equalisation" not in actions["--preprocess"].help
+    # the slope range's ends: the README's create() defaults, and the flags' help
+    assert "firstSlope=-inf, lastSlope=+inf" in readme()
+    assert actions["--first-slope"].help.endswith("--first-slope=-inf")
+    assert actions["--last-slope"].help.endswith("--last-slope=inf")

@@ -40,9 +40,10 @@ def add_reader_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--preprocess", action="store_true", help=PREPROCESS_HELP)
 
 
-#: --preprocess's help: what the README says of liff.preprocess.prepare
-PREPROCESS_HELP = ("the paper's SfM preprocessing: luminance, gamma 0.5, one histogram "
-                   "stretch over the whole light field (off unless asked for)")
+#: what liff.preprocess.prepare does, as the README says it (tests/test_input_registry.py)
+PREPROCESSING = "luminance, gamma 0.5, one histogram stretch over the whole light field"
+#: --preprocess's help
+PREPROCESS_HELP = f"the paper's SfM preprocessing: {PREPROCESSING} (off unless asked for)"
 
 
 def reader_dest(flag: str) -> str:
@@ -80,8 +81,9 @@ def add_detector_options(parser: argparse.ArgumentParser) -> None:
                                action=argparse.BooleanOptionalAction, help=p.help)
         elif p.name in SLOPE_BOUNDS:  # None: not given (liff detect may use a reader's range)
             group.add_argument(option_name(p.name), dest=p.name, type=slope_bound, default=None,
-                               metavar="FLOAT", help=(text + "; infinite values as "
-                               f"{option_name(p.name)}=-inf").replace("%", "%%"))
+                               metavar="FLOAT", help=(text + "; automatic at this end: "
+                               f"{option_name(p.name)}={'-' if p.name == 'firstSlope' else ''}inf"
+                               ).replace("%", "%%"))
         else:
             group.add_argument(option_name(p.name), dest=p.name, type=p.type, default=p.default,
                                metavar=p.type.__name__.upper(), help=text.replace("%", "%%"))

@@ -218,7 +218,7 @@ def run_sfm(args: argparse.Namespace) -> int:
     matching = args.matching or ("pose" if camera is not None else "colmap")
     if matching == "pose" and camera is None:
         raise ValueError("--matching pose needs the camera's calibration; expected --camera, "
-                         "--hci or --lftoolbox, or --matching colmap")
+                         "--camera-file, --hci or --lftoolbox, or --matching colmap")
     mapper = args.mapper or ("poses" if matching == "pose" else "default")
     if mapper == "poses" and matching != "pose":
         raise ValueError("--mapper poses builds the model from the pairs' metric poses; expected "

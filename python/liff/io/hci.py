@@ -70,8 +70,8 @@ def read_hci(folder: PathLike) -> HciScene:
     Warns
     -----
     MissingViewsWarning
-        When views of the grid (parameters.cfg's, else the smallest square one holding
-        every view's number) are missing, naming them: any pattern (EPINET's 33 of 81:
+        When views of the grid (parameters.cfg's, else the square one whose last view
+        is the last numbered) are missing, naming them: any pattern (EPINET's 33 of 81:
         centre row, column and diagonals) is read with alpha 0 at the missing views.
     """
     folder = os.fspath(folder)
@@ -107,8 +107,12 @@ def read_hci(folder: PathLike) -> HciScene:
             if T < 1 or S < 1 or T * S > MAX_VIEWS:
                 raise ValueError(f"{cfg_path}: grid num_cams_y x num_cams_x = {T}x{S}; expected "
                                  f"a positive grid of at most {MAX_VIEWS} views")
-    if T is None:  # no grid given: the smallest square grid numbering every view
-        T = S = int(np.ceil(np.sqrt(max(views) + 1)))
+    if T is None:  # no grid given: the square grid whose last view is the last numbered
+        T = S = int(round(np.sqrt(max(views) + 1)))
+        if T * S != max(views) + 1:
+            raise ValueError(f"{folder}: views numbered up to input_Cam{max(views):03d}.png and no "
+                             f"parameters.cfg grid; expected a square number of views (the last "
+                             f"one's number + 1), or parameters.cfg's num_cams_x and num_cams_y")
     views = {i: path for i, path in views.items() if i < T * S}  # (parameters.cfg's grid)
     if not views:
         raise ValueError(f"{folder}: no input_CamNNN.png view inside the {T}x{S} grid of "

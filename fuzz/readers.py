@@ -1,8 +1,10 @@
 """The readers under test, shared by the fuzz target (fuzz_readers.py), the corpus
 replay (tests/test_fuzz_corpus.py) and the reader property tests.
 
-Adding a reader is one line in READERS: a name (also its corpus folder,
-fuzz/corpus/<name>/), the function, and how the fuzz bytes become its input:
+Every light field format of liff.io's registry (liff.io.formats.FORMATS, its ``fuzz``
+field: the input's name ending and the options to read it with) is a target, named as
+the format (also its corpus folder, fuzz/corpus/<name>/); READERS adds the targets that
+are not formats: a name, the function, and how the fuzz bytes become its input:
 ``file(".ext")`` writes them to one file, ``FOLDER`` unpacks them into a folder
 (see unpack_folder). The contract every reader is held to: a clean result, or a
 ValueError (or, for a file claiming more than the memory budget, a MemoryError) that
@@ -44,17 +46,18 @@ def file(suffix: str) -> Optional[str]:
 
 FOLDER = None
 
-READERS = [
+def _registered() -> list:
+    """A target per format of liff.io's registry (liff.io.formats.FORMATS): its reader,
+    with the registry's fuzz options, on an input with the registry's name ending."""
+    from functools import partial
+
+    return [Reader(f.name, partial(f.read, **f.fuzz[1]) if f.fuzz[1] else f.read, f.fuzz[0])
+            for f in liff.io.formats.FORMATS.values() if f.fuzz is not None]
+
+
+READERS = _registered() + [
     Reader("pfm", liff.io.read_pfm, file(".pfm")),
-    Reader("hci", liff.io.read_hci, FOLDER),
-    Reader("views", liff.io.read_views, FOLDER),
-    Reader("eslf", lambda path: liff.io.read_eslf(path, n=2), file(".eslf.png")),
     Reader("eslf-detect", liff.io.read_eslf, file("_eslf.png")),  # lenslet size detected
-    Reader("mosaic", lambda path: liff.io.read_mosaic(path, grid=(2, 2)), file(".png")),
-    Reader("npy", liff.io.read_numpy, file(".npy")),
-    Reader("npz", liff.io.read_numpy, file(".npz")),
-    Reader("mat", liff.io.read_mat, file(".mat")),
-    Reader("hdf5", liff.io.read_hdf5, file(".h5")),
     Reader("any", liff.io.read_light_field, file(".npz")),
     # a parameter file (YAML, JSON or XML, told by its content): nesting, size, values
     Reader("parameters", read_parameters, file(".yml")),

@@ -64,7 +64,8 @@ def test_local_cluster_batch_equals_the_api_and_reports_failures(cluster, tmp_pa
     rows = read_manifest(tmp_path / "m.csv")
     assert list(rows[0]) == ["input", "output", "status", "features", "first_slope",
                              "last_slope", "searched", "built", "slopes_from", "seconds",
-                             "cpu_seconds", "error", "worker", "notes"]
+                             "cpu_seconds", "error", "worker", "notes", "format", "reader_options"]
+    assert [r["format"] for r in rows] == ["npy"] * 4 and rows[1]["reader_options"] == ""
     assert [r["status"] for r in rows] == ["failed", "done", "done", "done"]
     assert rows[1]["slopes_from"] == "automatic" and float(rows[1]["seconds"]) > 0
     assert float(rows[1]["first_slope"]) <= float(rows[1]["last_slope"])

@@ -89,7 +89,7 @@ def _detect(disks, out, *options):
     (["--root-sift"], "rootSift False -> True"),
     (["--first-slope", "-0.5", "--last-slope", "0.5"], "firstSlope not given -> -0.5"),
     (["--preprocess"], "preprocess False -> True"),
-    (["--key", "light_field"], "reader options {} -> {'key': 'light_field'}")])
+    (["--key", "light_field"], "reader options not given -> --key light_field")])
 def test_an_output_made_with_other_settings_is_redone_and_said(disks, tmp_path, capsys, options,
                                                                differs):
     out = tmp_path / "f.npz"

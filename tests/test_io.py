@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import cv2
@@ -92,9 +93,9 @@ def test_hci_folder_reads_and_its_disparity_matches_liff_slopes(tmp_path):
 def test_hci_errors_name_the_problem(tmp_path):
     lf = np.full((2, 2, 16, 16), 0.5)
     write_hci_folder(tmp_path / "s", lf)
-    (tmp_path / "s" / "input_Cam002.png").unlink()
-    with pytest.raises(ValueError, match="input_Cam002.png"):
-        read_hci(tmp_path / "s")
+    (tmp_path / "s" / "input_Cam002.png").unlink()  # (a lost view: read, and named)
+    with pytest.warns(liff.MissingViewsWarning, match="input_Cam002.png"):
+        assert read_hci(tmp_path / "s").light_field.shape == (2, 2, 16, 16, 4)
     with pytest.raises(ValueError, match="no input_CamNNN"):
         read_hci(tmp_path)
     with pytest.raises(ValueError, match="not a folder"):
@@ -117,3 +118,52 @@ def test_cotton_scene():
     gt = scene.gt_disparity
     assert gt.shape == (512, 512) and np.isfinite(gt).all()
     assert -1.6 <= gt.min() < gt.max() <= 1.5
+
+
+def pfm_bytes(image: np.ndarray, header: bytes, order: str = "<f4") -> bytes:
+    """A PFM file of ``image`` (rows top-down) under a hand-written ``header``."""
+    return header + np.ascontiguousarray(image[::-1], dtype=order).tobytes()
+
+
+@pytest.mark.parametrize("shape", [(2, 3), (5, 4), (3, 4, 3)])
+@pytest.mark.parametrize("header, order", [
+    (b"{magic}\r\n{w} {h}\r\n-1.0\r\n", "<f4"),                       # CR+LF (Windows tools)
+    (b"{magic}\r\n{w} {h}\r\n1.0\r\n", ">f4"),                        # CR+LF, big-endian
+    (b"# written by a tool\n{magic}\n# size\n{w} {h}\n# scale\n-1\n", "<f4"),  # comments
+    (b"{magic}\r\n# comment\r\n{w}\t\t{h}\r\n\r\n  -0.5\n", "<f4"),   # CR+LF, comment, blanks
+    (b"{magic}   \n  {w}\n{h}  \n  1.0\n", ">f4"),                     # extra whitespace
+    (b"{magic} {w} {h} -1.0\n", "<f4"),                                # one line
+])
+def test_pfm_header_variants_read_alike(tmp_path, shape, header, order):
+    """Issue 26 item 2: CR+LF line ends were read as garbage (values ~1e29)."""
+    image = np.random.default_rng(len(header)).normal(size=shape).astype(np.float32)
+    magic = b"PF" if len(shape) == 3 else b"Pf"
+    head = header.replace(b"{magic}", magic).replace(b"{w}", b"%d" % shape[1]) \
+        .replace(b"{h}", b"%d" % shape[0])
+    (tmp_path / "v.pfm").write_bytes(pfm_bytes(image, head, order))
+    read = read_pfm(tmp_path / "v.pfm")
+    assert read.dtype == np.float32 and np.array_equal(read, image)
+
+
+def test_pfm_crlf_header_whose_data_starts_with_a_line_feed_byte(tmp_path):
+    """A header ending in a lone CR, data starting with 0x0a: the file's size tells."""
+    image = np.zeros((1, 2), np.float32)
+    data = b"\n" + bytes(7)  # the first float's first byte is 0x0a
+    (tmp_path / "cr.pfm").write_bytes(b"Pf\r2 1\r-1\r" + data[:-1] + b"\x00")
+    expected = np.frombuffer(data, "<f4").reshape(1, 2)
+    assert np.array_equal(read_pfm(tmp_path / "cr.pfm"), expected)
+    (tmp_path / "crlf.pfm").write_bytes(b"Pf\r\n2 1\r\n-1\r" + data)  # CR + (LF of the data)
+    assert np.array_equal(read_pfm(tmp_path / "crlf.pfm"), expected)
+
+
+@pytest.mark.parametrize("content, expected", [
+    (b"PF4\n2 2\n-1\n" + bytes(64), r"magic b'PF4'; expected b'Pf' or b'PF'"),
+    (b"Pf\n2.5 2\n-1\n" + bytes(64), r"expected integer width and height"),
+    (b"Pf\n# only a comment\n", r"truncated PFM header"),
+    (b"Pf\r\n2 2\r\n-1\r\n" + bytes(8), r"PFM data holds 8 bytes; expected 16 for 2x2x1"),
+    (b"Pf\n2 2\ninf\n" + bytes(16), r"finite non-zero scale"),
+])
+def test_pfm_headers_the_format_does_not_allow_are_refused_clearly(tmp_path, content, expected):
+    (tmp_path / "bad.pfm").write_bytes(content)
+    with pytest.raises(ValueError, match=re.escape(str(tmp_path / "bad.pfm")) + ".*" + expected):
+        read_pfm(tmp_path / "bad.pfm")

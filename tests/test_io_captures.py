@@ -97,10 +97,10 @@ def test_a_crop_of_a_larger_grid_reads_with_or_without_grid_and_pattern(tmp_path
     other = tmp_path / "offset"
     write_named(other, lf, lambda t, s: f"cam_{t + 8}_{s + 3}.png")
     assert io.read_views(other).metadata["first_index"] == (8, 3)
-    # a grid larger than the names can fill is an incomplete set that is not a pattern
+    # a grid whose longer side has more views than the names give is refused
     raises_naming(tmp_path, r"280 views missing for a 17x17 grid \(numbered from t=8, s=8\): "
-                  r"\(t=8, s=11\).* but the centre row and column lack", io.read_views,
-                  tmp_path, grid=(17, 17))
+                  r"\(t=8, s=11\).*; expected at least 17 views \(the grid's longer side\)",
+                  io.read_views, tmp_path, grid=(17, 17))
 
 
 def test_cli_reads_a_crop_with_grid_and_pattern(tmp_path, capsys):
@@ -145,26 +145,76 @@ def test_incomplete_views_with_alpha_keep_their_channels(tmp_path):
     assert not result.light_field[0, 0].any()
 
 
-@pytest.mark.parametrize("present, expected", [
-    (set(np.ndindex(5, 5)) - {(0, 3)}, r"view \(t=4, s=1\) is present but its mirror image about "
-                                        r"the centre \(t=0, s=3\) is not"),
-    (cross(5, 5) - {(2, 1)}, r"the centre row and column lack 1 view\(s\), e\.g\. \(t=2, s=1\)"),
-    ({(0, 0), (4, 4), (2, 2)}, r"the centre row and column lack 8 view\(s\)"),  # symmetric, sparse
+def epinet(T: int, S: int) -> set:
+    """HCI's EPINET subset: the centre row and column and both diagonals (33 of 9x9)."""
+    return star(T, S)
+
+
+@pytest.mark.parametrize("shape, present, named", [
+    ((5, 5), set(np.ndindex(5, 5)) - {(0, 3)}, "(t=0, s=3)"),  # not symmetric: a lost view
+    ((5, 5), cross(5, 5) - {(2, 1)}, "(t=0, s=0), (t=0, s=1), (t=0, s=3)"),  # a broken cross
+    ((3, 7), {(t, s) for t in range(3) for s in range(7) if s % 2 == 0}, "(t=0, s=1)"),  # columns
+    ((9, 9), epinet(9, 9), "(t=0, s=1), (t=0, s=2), (t=0, s=3)"),
 ])
-def test_incomplete_sets_that_are_not_a_pattern_are_refused(tmp_path, present, expected):
-    lf = coded_lf((5, 5, 4, 4))
+def test_incomplete_sets_of_any_pattern_read_with_alpha_and_name_the_missing(tmp_path, shape,
+                                                                            present, named):
+    """Issue 26 item 10: any pattern reads as the grid, alpha 0 at the missing views,
+    and a MissingViewsWarning names them (all of them in metadata)."""
+    lf = coded_lf(shape + (4, 4))
     write_named(tmp_path, lf, lambda t, s: f"v_{t}_{s}.png", present)
-    raises_naming(tmp_path, r"views missing for a 5x5 grid .*expected every view, or an incomplete "
-                  r"set holding the centre row and column and symmetric about the centre \(a cross "
-                  r"or star of views\), but " + expected, io.read_views, tmp_path)
+    missing = sorted(set(np.ndindex(*shape)) - present)
+    with pytest.warns(liff.MissingViewsWarning) as caught:
+        result = io.read_views(tmp_path)
+    message = str(caught[0].message)
+    assert message.startswith(str(tmp_path)) and named in message
+    assert f"{len(missing)} of {shape[0] * shape[1]} views missing" in message
+    assert result.metadata["missing"] == missing
+    out = result.light_field
+    assert out.shape == shape + (4, 4, 2)
+    for t, s in np.ndindex(*shape):
+        assert (out[t, s, ..., 1] == (255 if (t, s) in present else 0)).all()
+        if (t, s) in present:
+            np.testing.assert_array_equal(out[t, s, ..., 0], lf[t, s])
+
+
+def test_too_few_views_for_their_grid_are_refused(tmp_path):
+    """Fewer views than the grid's longer side: names that are not view indices."""
+    lf = coded_lf((5, 5, 4, 4))
+    write_named(tmp_path, lf, lambda t, s: f"v_{t}_{s}.png", {(0, 0), (4, 4), (2, 2), (1, 3)})
+    raises_naming(tmp_path, r"21 views missing for a 5x5 grid \(numbered from t=0, s=0\): "
+                  r"\(t=0, s=1\), .* \.\.\.; expected at least 5 views \(the grid's longer "
+                  r"side\) for an incomplete set: 4 view\(s\)", io.read_views, tmp_path)
 
 
 def test_huge_indices_are_refused_without_allocating(tmp_path):
     lf = coded_lf((1, 2, 4, 4))
     cv2.imwrite(str(tmp_path / "v_0_0.png"), lf[0, 0])
     cv2.imwrite(str(tmp_path / "v_1000000_1000000.png"), lf[0, 1])
-    raises_naming(tmp_path, r"views missing for a 1000001x1000001 grid .* the centre row and "
-                  r"column lack 2000001 view\(s\)", io.read_views, tmp_path)
+    raises_naming(tmp_path, r"1000001x1000001 grid .*expected at least 1000001 views .*: 2 view",
+                  io.read_views, tmp_path)
+
+
+@pytest.mark.parametrize("grid, cfg", [((9, 9), True), ((9, 9), False), ((5, 7), True)])
+def test_an_hci_subset_reads_with_alpha_and_names_the_missing(tmp_path, grid, cfg):
+    """EPINET's 33 of 81 input_CamNNN.png (centre row, column, diagonals), with and
+    without parameters.cfg (the grid: the smallest square numbering every view)."""
+    T, S = grid
+    lf = coded_lf(grid + (6, 8, 3))
+    present = epinet(T, S) if T == S else cross(T, S)
+    for t, s in present:
+        cv2.imwrite(str(tmp_path / f"input_Cam{t * S + s:03d}.png"), lf[t, s])
+    if cfg:
+        (tmp_path / "parameters.cfg").write_text(
+            f"[extrinsics]\nnum_cams_x = {S}\nnum_cams_y = {T}\n")
+    with pytest.warns(liff.MissingViewsWarning, match=r"input_Cam001\.png") as caught:
+        result = io.read_light_field(tmp_path)
+    assert f"{T * S - len(present)} of {T * S} views missing" in str(caught[0].message)
+    out = result.light_field
+    assert result.format == "hci" and out.shape == grid + (6, 8, 4)
+    for t, s in np.ndindex(T, S):
+        assert (out[t, s, ..., 3] == (255 if (t, s) in present else 0)).all()
+        if (t, s) in present:
+            np.testing.assert_array_equal(out[t, s, ..., :3], lf[t, s])
 
 
 def test_liff_on_a_cross_finds_the_slopes_of_the_full_grid(tmp_path, blob_scene):
@@ -366,15 +416,30 @@ def test_damaged_mat_files_scipy_would_crash_on_are_refused(bug):
                   r"\[1, 2, 3, 4, 5, 6, 7, 9, 12, 13\]\)", io.read_mat, path)
 
 
-@pytest.mark.parametrize("module, extra, call", [
-    ("scipy.io", "mat", lambda p: io.read_mat(p)),
-    ("h5py", "hdf5", lambda p: io.read_hdf5(p)),
+@pytest.mark.parametrize("module, call", [
+    ("scipy.io", lambda p: io.read_mat(p)),
+    ("h5py", lambda p: io.read_hdf5(p)),
 ])
-def test_missing_optional_dependency_names_the_extra(tmp_path, monkeypatch, module, extra, call):
+def test_a_dependency_missing_all_the_same_says_how_to_install_it(tmp_path, monkeypatch, module,
+                                                                  call):
+    """SciPy and h5py are dependencies (issue 26 item 10: LFToolbox's v7.3 .mat and the
+    2013 HCI benchmark's lf.h5 read on a plain pip install); an installation that
+    skipped them is told which package to install."""
     (tmp_path / "x.bin").write_bytes(b"data")
     monkeypatch.setitem(sys.modules, module, None)
-    with pytest.raises(ImportError, match=re.escape(f"pip install 'liff[{extra}]'")):
+    package = module.split(".")[0]
+    with pytest.raises(ImportError, match=re.escape(f"a dependency of liff that is not installed "
+                                                    f"here: pip install {package}")):
         call(tmp_path / "x.bin")
+
+
+def test_h5py_and_scipy_are_dependencies_not_extras():
+    import tomllib
+
+    with open(Path(__file__).resolve().parents[1] / "pyproject.toml", "rb") as f:
+        project = tomllib.load(f)["project"]
+    names = {re.match(r"[\w-]+", d).group(0) for d in project["dependencies"]}
+    assert {"h5py", "scipy"} <= names
 
 
 # ---------------------------------------------------------------- HDF5

@@ -10,7 +10,8 @@ disparity) is in ``class_id`` and read with :func:`keypoint_slopes`.
 from ._core import (getNumThreads, getWorkingMemoryReuse, keptWorkingMemoryBytes, opencvVersion,
                     releaseWorkingMemory, setNumThreads, setWorkingMemoryReuse)
 from ._detector import PARAMETERS, LiFF, LiFF_create
-from ._warnings import IntensityWarning, LensletSizeWarning, LiffWarning, SlopeRangeWarning
+from ._warnings import (IntensityWarning, LensletSizeWarning, LiffWarning, MissingViewsWarning,
+                        SlopeRangeWarning)
 from .keypoint_rows import SLOPE_SCALE, keypoint_slopes
 from .camera import LightFieldCamera
 from .pose import PoseEstimationError, estimate_relative_pose
@@ -21,6 +22,7 @@ __all__ = [
     "LiFF",
     "LiFF_create",
     "LiffWarning",
+    "MissingViewsWarning",
     "PARAMETERS",
     "SLOPE_SCALE",
     "SlopeRangeWarning",

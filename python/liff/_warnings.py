@@ -16,6 +16,11 @@ class LensletSizeWarning(LiffWarning):
     (:func:`liff.io.detect_lenslet_size`)."""
 
 
+class MissingViewsWarning(LiffWarning):
+    """A light field's view set is incomplete: it is read as the whole grid with the
+    missing views at weight (alpha) 0, and the message names them (docs/INPUTS.md)."""
+
+
 class SlopeRangeWarning(LiffWarning):
     """More than 5% of the features sit at an end of a hand-set slope range, so the
     slopes of structure beyond it are pinned there; the message names the range the

@@ -88,6 +88,16 @@ class Outcome:
     error: str = ""
     worker: str = ""
     notes: str = ""
+    format: str = ""
+    reader_options: str = ""
+
+
+def read_as(options: dict) -> dict:
+    """The manifest's ``format`` and ``reader_options`` (as the command line writes
+    them: ``--lenslet 14``) of an input read with ``options``."""
+    from .cli.common import shown_options
+
+    return {"format": options.get("format") or "", "reader_options": shown_options(options)}
 
 
 _ONE_AT_A_TIME = threading.Lock()  # per worker process: LiFF already uses every thread
@@ -96,6 +106,7 @@ _ONE_AT_A_TIME = threading.Lock()  # per worker process: LiFF already uses every
 def run_task(task: Task) -> Outcome:
     """Runs one task where it is (a Dask worker, a local process, here) and returns its
     outcome; an error reading, detecting or writing is in ``Outcome.error``, not raised."""
+    from .cli.common import name_flags
     from .cli.detect import detect_one
 
     with _ONE_AT_A_TIME, _worker_resources() as worker:
@@ -104,10 +115,12 @@ def run_task(task: Task) -> Outcome:
             result = detect_one(*task)
             outcome = Outcome(task.source, task.output, "done", result.features,
                               *result.slope_range, result.searched, result.built,
-                              result.slopes_from, notes="\n".join(result.notes))
+                              result.slopes_from, notes="\n".join(result.notes),
+                              **read_as(task.reader_options))
         except Exception as error:  # reported in the manifest, as every failure of a task
             outcome = Outcome(task.source, task.output, "failed",
-                              error=f"{type(error).__name__}: {error}{_memory_hint(error)}")
+                              error=f"{type(error).__name__}: {name_flags(str(error))}"
+                                    f"{_memory_hint(error)}", **read_as(task.reader_options))
         outcome.seconds = round(time.perf_counter() - start, 3)
         outcome.cpu_seconds = round(time.process_time() - cpu, 3)
         outcome.worker = worker
@@ -310,7 +323,8 @@ def _gather(client, tasks: Sequence[Task], progress) -> List[Outcome]:
             outcomes[i] = future.result()
         except Exception as error:  # e.g. KilledWorker: the task killed every worker it met
             outcomes[i] = Outcome(tasks[i].source, tasks[i].output, "failed",
-                                  error=f"{type(error).__name__}: {error}")
+                                  error=f"{type(error).__name__}: {error}",
+                                  **read_as(tasks[i].reader_options))
         if progress:
             progress(outcomes[i])
     return outcomes

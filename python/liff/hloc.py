@@ -43,7 +43,7 @@ def names_to_pair(name0: str, name1: str) -> str:
 def _write_group(path, key: str, what: str, datasets: dict, overwrite: bool) -> None:
     """Writes ``datasets`` as the group ``key`` of the HDF5 file ``path`` (made if
     missing); an existing group is replaced with ``overwrite``, else a ValueError."""
-    import h5py  # optional dependency (pip install "liff[hdf5]")
+    import h5py  # (a dependency of liff)
 
     with h5py.File(path, "a") as f:
         if key in f:

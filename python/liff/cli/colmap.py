@@ -111,8 +111,8 @@ def write(args: argparse.Namespace, database: str, image_dir: str, focal=None,
     if len(set(names)) != len(names):
         raise ValueError(f"inputs give repeated image names {sorted(names)}; expected distinct "
                          "file or folder names")
-    jobs = [(path, common.reader_options(args), args.preprocess, common.detector_parameters(args))
-            for path in args.paths]
+    jobs = [(item.path, item.options, args.preprocess, common.detector_parameters(args))
+            for item in args.inputs]
     results, failures = common.run_batch(features_for_colmap, jobs, args.workers, args.command,
                                          label=lambda job: job[0])
     images, read = [], []
@@ -199,14 +199,14 @@ def number(value: float, fmt: str) -> str:
 
 
 def run_colmap(args: argparse.Namespace) -> int:
-    common.expand_args(args, common.reader_options(args))
+    common.expand_args(args, common.reader_options(args), features=True)
     return 1 if write(args, args.database, args.image_dir) else 0
 
 
 def run_sfm(args: argparse.Namespace) -> int:
     from .. import colmap  # first: without pycolmap it says how to install it
 
-    common.expand_args(args, common.reader_options(args))
+    common.expand_args(args, common.reader_options(args), features=True)
     if len(args.paths) < 2:
         raise ValueError(f"{len(args.paths)} input; expected light fields of at least 2 camera "
                          "poses for structure from motion")
@@ -218,7 +218,7 @@ def run_sfm(args: argparse.Namespace) -> int:
     matching = args.matching or ("pose" if camera is not None else "colmap")
     if matching == "pose" and camera is None:
         raise ValueError("--matching pose needs the camera's calibration; expected --camera, "
-                         "--hci or --lftoolbox, or --matching colmap")
+                         "--camera-file, --hci or --lftoolbox, or --matching colmap")
     mapper = args.mapper or ("poses" if matching == "pose" else "default")
     if mapper == "poses" and matching != "pose":
         raise ValueError("--mapper poses builds the model from the pairs' metric poses; expected "

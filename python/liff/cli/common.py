@@ -9,7 +9,6 @@ import os
 import re
 import sys
 import time
-import warnings
 from contextlib import contextmanager
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
@@ -27,46 +26,41 @@ FILE_ENDINGS = IMAGE_SUFFIXES + (".npz", ".npy", ".db")
 
 
 def add_reader_options(parser: argparse.ArgumentParser) -> None:
+    """``--format``, one flag per reader option and ``--preprocess``, from the format
+    registry (liff.io.formats: choices, help and the formats each option applies to)."""
+    from ..io.formats import FORMATS, OPTIONS, flag_help, format_help
+
     group = parser.add_argument_group("reading light fields (docs/INPUTS.md)")
-    group.add_argument("--format", default=None,
-                       help="hci, views, eslf, mosaic, npy, npz, mat or hdf5 (default: from the "
-                            "path)")
-    group.add_argument("--grid", type=int, nargs=2, metavar=("T", "S"), default=None,
-                       help="view grid (mosaics; overrides what view names say)")
-    group.add_argument("--lenslet", type=int, default=None, metavar="N",
-                       help="lenslet size of an ESLF image (default: detected from the image; "
-                            "14 in the Stanford Lytro archive, 15 from the Light Field Toolbox)")
-    group.add_argument("--keep-views", type=int, default=None, metavar="K",
-                       help="ESLF: keep the centre K x K views (e.g. 11 of a Lytro's 14)")
-    group.add_argument("--pattern", default=None,
-                       help="views: regex with named groups t and s (or index) for the file names")
-    group.add_argument("--key", default=None,
-                       help="npz, mat, hdf5: the array, variable or dataset holding the light field")
-    group.add_argument("--bit-depth", type=int, default=None, metavar="B",
-                       help="the values are B-bit (e.g. 10 or 12 for sensor data in 16-bit files, "
-                            "8 for floats in 0..255): rescale them to the dtype's range")
-    group.add_argument("--preprocess", action="store_true",
-                       help="the paper's SfM preprocessing: luminance, gamma 0.5, "
-                            "histogram equalisation")
+    group.add_argument("--format", default=None, choices=list(FORMATS), metavar="FORMAT",
+                       help=format_help())
+    for option in OPTIONS.values():
+        group.add_argument(option.flag, dest=reader_dest(option.flag), type=option.type,
+                           nargs=option.nargs, metavar=option.metavar, default=None,
+                           help=flag_help(option))
+    group.add_argument("--preprocess", action="store_true", help=PREPROCESS_HELP)
+
+
+#: what liff.preprocess.prepare does, as the README says it (tests/test_input_registry.py)
+PREPROCESSING = "luminance, gamma 0.5, one histogram stretch over the whole light field"
+#: --preprocess's help
+PREPROCESS_HELP = f"the paper's SfM preprocessing: {PREPROCESSING} (off unless asked for)"
+
+
+def reader_dest(flag: str) -> str:
+    """The attribute argparse keeps a flag's value in: ``--keep-views`` -> ``keep_views``."""
+    return flag[2:].replace("-", "_")
 
 
 def reader_options(args: argparse.Namespace) -> dict:
-    """Keyword arguments for liff.io.read_light_field from the parsed options."""
-    options = {}
-    if args.format:
-        options["format"] = args.format
-    if args.grid:
-        options["grid"] = tuple(args.grid)
-    if args.lenslet:
-        options["n"] = args.lenslet
-    if args.keep_views:
-        options["keep"] = args.keep_views
-    if args.pattern:
-        options["pattern"] = args.pattern
-    if args.key:
-        options["key"] = args.key
-    if args.bit_depth is not None:
-        options["bit_depth"] = args.bit_depth
+    """Keyword arguments for liff.io.read_light_field from the parsed options (those
+    given: the format and each reader option of the registry)."""
+    from ..io.formats import OPTIONS
+
+    options = {"format": args.format} if getattr(args, "format", None) else {}
+    for option in OPTIONS.values():
+        given = getattr(args, reader_dest(option.flag), None)
+        if given is not None:
+            options[option.keyword] = option.value(given)
     return options
 
 
@@ -87,8 +81,9 @@ def add_detector_options(parser: argparse.ArgumentParser) -> None:
                                action=argparse.BooleanOptionalAction, help=p.help)
         elif p.name in SLOPE_BOUNDS:  # None: not given (liff detect may use a reader's range)
             group.add_argument(option_name(p.name), dest=p.name, type=slope_bound, default=None,
-                               metavar="FLOAT", help=(text + "; infinite values as "
-                               f"{option_name(p.name)}=-inf").replace("%", "%%"))
+                               metavar="FLOAT", help=(text + "; automatic at this end: "
+                               f"{option_name(p.name)}={'-' if p.name == 'firstSlope' else ''}inf"
+                               ).replace("%", "%%"))
         else:
             group.add_argument(option_name(p.name), dest=p.name, type=p.type, default=p.default,
                                metavar=p.type.__name__.upper(), help=text.replace("%", "%%"))
@@ -155,41 +150,34 @@ def slope_bound(text: str) -> float:
     return value
 
 
-class _Probe(list):
-    """A value no option has by default; iterable for options read as tuple(value)."""
-
-
 def keyword_flags() -> Dict[str, str]:
-    """Python keyword -> command-line flag for the reader options and detector
-    parameters (``keep`` -> ``--keep-views``, ``contrastThreshold`` ->
-    ``--contrast-threshold``), found by passing each flag a probe value through
-    :func:`reader_options`, so that it follows whatever options that function reads."""
+    """Python keyword -> command-line flag for the reader options (from the format
+    registry, ``keep`` -> ``--keep-views``) and detector parameters
+    (``contrastThreshold`` -> ``--contrast-threshold``)."""
+    from ..io.formats import OPTIONS
+
     flags = {p.name: option_name(p.name) for p in PARAMETERS}
-    parser = argparse.ArgumentParser()
-    add_reader_options(parser)
-    actions = [a for a in parser._actions if a.option_strings and a.dest != "help"]
-    for action in actions:
-        probe = argparse.Namespace(**{a.dest: a.default for a in actions})
-        token = object()
-        setattr(probe, action.dest, _Probe([token]))
-        for keyword, value in reader_options(probe).items():
-            if value is getattr(probe, action.dest) or (isinstance(value, tuple) and token in value):
-                flags[keyword] = action.option_strings[0]
+    flags.update({o.keyword: o.flag for o in OPTIONS.values()})
     return flags
 
 
 def name_flags(message: str) -> str:
     """``message`` with the readers' and the detector's Python keywords named as the
-    command line's flags: "keep = 20" -> "--keep-views = 20", "option(s) key do not
-    apply ...; expected n, keep" -> "option(s) --key ...; expected --lenslet, --keep-views"."""
+    command line's flags: "keep = 20" -> "--keep-views = 20", "(n=N)" -> "(--lenslet N)",
+    "option(s) key do not apply ...; expected n, keep" -> "option(s) --key ...; expected
+    --lenslet, --keep-views"."""
+    from ..io.formats import OPTIONS
+
     flags = keyword_flags()
 
     def in_list(match: re.Match) -> str:
-        return re.sub(r"\w+", lambda word: flags.get(word.group(0), word.group(0)), match.group(0))
+        return re.sub(r"(?<![\w-])\w+", lambda word: OPTIONS[word.group(0)].flag
+                      if word.group(0) in OPTIONS else word.group(0), match.group(0))
 
     if " do not apply to format " in message:  # liff.io.read_light_field's option check
-        message = re.sub(r"(?<=option\(s\) )[\w, ]+(?= do not apply)", in_list, message)
-        message = re.sub(r"(?<=; expected )[\w, ]+$", in_list, message)
+        message = re.sub(r"(?<=option\(s\) ).*", in_list, message, flags=re.S)
+    for option in OPTIONS.values():  # "n=N" as the command line writes it: "--lenslet N"
+        message = re.sub(rf"(?<![\w.-]){option.keyword}=(?=\S)", option.flag + " ", message)
     for keyword, flag in flags.items():
         camel = keyword != keyword.lower()  # detector parameters: unique words, named anywhere
         pattern = rf"(?<![\w.-]){keyword}\b" + ("" if camel else r"(?= ?=| \(| \d)")
@@ -274,97 +262,39 @@ def load_light_field(path: str, options: dict, preprocess: bool) -> np.ndarray:
     return read_input(path, options, preprocess)[0]
 
 
-def is_light_field_folder(folder: str, options: dict) -> bool:
-    """A folder is one light field (HCI scene, views) when it holds image files, unless
-    ``--format`` names a one-file format; else it is a folder of light fields."""
-    if options.get("format") not in (None, "hci", "views"):
-        return False
-    try:
-        with os.scandir(folder) as entries:
-            return any(e.is_file() and e.name.lower().endswith(IMAGE_SUFFIXES)
-                       and ".eslf." not in e.name.lower() and not e.name.startswith(".")
-                       for e in entries)
-    except OSError as error:
-        raise ValueError(f"{folder}: cannot list the folder ({error.strerror}); expected a "
-                         "readable folder of light fields or of views") from None
-
-
-def _folder_entries(folder: str, options: dict, seen: Optional[set] = None) -> List[str]:
-    """The light fields in a folder of light fields, sorted: the files liff.io recognises
-    (.npy, .npz, .mat, .h5, *.eslf.*), sub-folders that are light fields (views; see
-    :func:`is_light_field_folder`), and the light fields in the other sub-folders, at
-    any depth; hidden files and folders (partial outputs) skipped."""
-    from ..io import guess_format
-
-    seen = seen if seen is not None else set()
-    if os.path.realpath(folder) in seen:  # a link back up: a cycle
-        return []
-    seen.add(os.path.realpath(folder))
-    try:
-        names = sorted(n for n in os.listdir(folder) if not n.startswith("."))
-    except OSError as error:
-        raise ValueError(f"{folder}: cannot list the folder ({error.strerror}); expected a "
-                         "readable folder of light fields") from None
-    found: List[str] = []
-    for path in (os.path.join(folder, n) for n in names):
-        if not os.path.isdir(path):
-            if guess_format(path) is not None:
-                found.append(path)
-            continue
-        try:
-            found += [path] if is_light_field_folder(path, options) else \
-                _folder_entries(path, options, seen)
-        except ValueError as error:  # an unreadable sub-folder (lost+found): the rest go on
-            from .._warnings import LiffWarning
-
-            warnings.warn(f"{error}; skipped", LiffWarning, stacklevel=2)
-    return found
-
-
-def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] = None) -> List[str]:
+def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] = None,
+                  features: bool = False) -> List[str]:
     """The light fields that PATH arguments name: each is a light field, a folder of
-    light fields (see :func:`is_light_field_folder`) or a glob pattern (quoted, so the
-    shell left it); ``from_list`` is a text file of more, one a line (relative to the
-    current folder; blank lines and lines starting with # skipped). Repeats are dropped.
+    light fields (each entry recognised by its names and content: liff.io.layout) or a
+    glob pattern (quoted, so the shell left it); ``from_list`` is a text file of more,
+    one a line, each perhaps with reader options of its own (liff.cli.inputs). Repeats
+    are dropped.
 
     Raises
     ------
     ValueError
         Naming the pattern, folder or list file that gave no light field.
     """
-    import glob
+    from .inputs import expand
 
-    paths = list(paths)
-    if from_list:
-        refuse_special(from_list, "a text file of light field paths, one a line")
-        try:
-            with open(from_list) as f:
-                listed = [line.strip() for line in f]
-        except OSError as error:
-            raise ValueError(f"{from_list}: cannot read the list ({error.strerror}); expected "
-                             "a text file of light field paths, one a line") from None
-        paths += [line for line in listed if line and not line.startswith("#")]
-    found: List[str] = []
-    for path in paths:
-        if not os.path.exists(path) and glob.has_magic(path):
-            matches = _glob(path)
-            if not matches:
-                raise ValueError(f"{path}: no file matches the pattern; expected light fields")
-            found += matches
-        elif os.path.isdir(path) and not is_light_field_folder(path, options):
-            entries = _folder_entries(path, options)
-            if not entries:
-                raise ValueError(f"{path}: no light field in the folder; expected view images "
-                                 "(one light field) or light field files and folders")
-            found += entries
-        else:
-            found.append(path)  # the reader will say if it is not a light field
-    seen, unique = set(), []
-    for path in found:
-        if os.path.realpath(path) not in seen:
-            seen.add(os.path.realpath(path))
-            unique.append(path)
-    return unique
+    return [item.path for item in expand(paths, options, from_list, features)[0]]
+
+
+def input_options(path: str, args: argparse.Namespace) -> dict:
+    """The reader options ``path`` (one input given by itself) is read with: its
+    format as liff.io.layout tells it, and the command line's options that format
+    takes (ValueError naming a flag it does not take)."""
+    from .inputs import expand
+
+    return expand([path], reader_options(args), features=True)[0][0].options
+
+
+def shown_options(options: dict) -> str:
+    """Reader options as the command line writes them: ``--lenslet 14 --keep-views 11``
+    (the format left out)."""
+    from ..io.formats import OPTIONS
+
+    return " ".join(OPTIONS[k].shown(v) for k, v in options.items() if k in OPTIONS)
 
 
 def _glob(pattern: str) -> List[str]:
@@ -386,12 +316,18 @@ def _glob(pattern: str) -> List[str]:
                                              for name in match.relative_to(base).parts))
 
 
-def expand_args(args: argparse.Namespace, options: dict, from_list: Optional[str] = None) -> None:
-    """``args.paths`` expanded by :func:`expand_inputs`; the paths as given stay in
-    ``args.given_paths``: a folder given is an input too, so nothing is written inside it
-    (a later run over the folder would read the outputs as light fields)."""
+def expand_args(args: argparse.Namespace, options: dict, from_list: Optional[str] = None,
+                features: bool = False) -> None:
+    """``args.paths`` expanded (:func:`expand_inputs`), ``args.inputs`` the inputs with
+    their format and reader options (liff.cli.inputs.Input), ``args.left_out`` what the
+    folders held that is not an input; the paths as given stay in ``args.given_paths``:
+    a folder given is an input too, so nothing is written inside it (a later run over
+    the folder would read the outputs as light fields)."""
+    from .inputs import expand
+
     args.given_paths = list(args.paths)
-    args.paths = expand_inputs(args.paths, options, from_list)
+    args.inputs, args.left_out = expand(args.paths, options, from_list, features)
+    args.paths = [item.path for item in args.inputs]
 
 
 def protected_inputs(args: argparse.Namespace) -> List[str]:
@@ -418,7 +354,8 @@ def check_hloc_output(path: Optional[str], inputs: Sequence[str], flag: str) -> 
     try:
         import h5py
     except ImportError as error:
-        raise ImportError(f"{flag} needs h5py: pip install 'liff[hdf5]'") from error
+        raise ImportError(f"{flag} needs h5py, a dependency of liff that is not installed "
+                          "here: pip install h5py") from error
     if os.path.exists(path) and not h5py.is_hdf5(path):
         raise ValueError(f"{path}: exists and is not an HDF5 file; expected a new {flag} path "
                          "or an hloc file to add to; nothing was written")

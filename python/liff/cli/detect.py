@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import glob
 import os
 import sys
 import warnings
@@ -34,7 +35,8 @@ def add_parser(sub) -> None:
                         "quoted glob patterns")
     p.add_argument("--from-list", default=None, metavar="FILE",
                    help="a text file of more inputs, one a line (# comments), so a dataset "
-                        "need not fit on the command line")
+                        "need not fit on the command line; a line may add reader options "
+                        "for its input after the path (IMG_1.png --lenslet 14)")
     p.add_argument("--out", default=None,
                    help="output .npz (one input) or folder (default: <name>.npz here)")
     p.add_argument("--plot", default=None,
@@ -48,17 +50,22 @@ def add_parser(sub) -> None:
                         "docs/BATCH.md")
     p.add_argument("--manifest", default=None, metavar="CSV",
                    help="write the run's manifest (input, output, status, features, slope "
-                        "range, seconds, CPU seconds, error, worker) here, as the run goes "
+                        "range, seconds, CPU seconds, error, worker, notes, format, reader "
+                        "options) here, as the run goes "
                         "(default for several inputs: OUT/manifest-<UTC time>.csv, or "
                         "...-2.csv when a run of the same second has taken it)")
     p.add_argument("--hloc", default=None, metavar="FEATS.h5",
                    help="also add every output's features to this hloc features file (a group "
-                        "per light field named OUTPUT-NAME.png; pip install 'liff[hdf5]'), for "
+                        "per light field named OUTPUT-NAME.png), for "
                         "hloc's matchers, triangulation and reconstruction")
     p.add_argument("--hloc-images", default=None, metavar="DIR",
                    help="with --hloc: write each centre view here under its group's name (the "
                         "image folder hloc is given)")
     mask.add_mask_option(p)
+    p.add_argument("--dry-run", action="store_true",
+                   help="list what would be read as what (each input's format, how it was "
+                        "recognised and its reader options) and what the folders hold that is "
+                        "not an input, then stop: nothing is read or written")
     p.add_argument("--overwrite", action="store_true",
                    help="redo outputs that exist even if made with the same settings, and "
                         "replace files at the output paths that are not liff feature files")
@@ -152,6 +159,10 @@ def changes(out: str, plot: Optional[str], wanted: dict) -> Optional[List[str]]:
     old.update({f"parameters.{k}": v for k, v in (made.get("parameters") or {}).items()})
     new = common.json_like(wanted)
     new.update({f"parameters.{k}": v for k, v in new["parameters"].items()})
+    if "reader_options" in old:  # as the command line writes them: --lenslet 14
+        old["reader_options"] = common.shown_options(old["reader_options"] or {}) or None
+        new["reader_options"] = common.shown_options(new["reader_options"]) or None
+
     def shown(value):
         return "not given" if value is None else value
 
@@ -196,12 +207,14 @@ def plan(args: argparse.Namespace, options: dict, parameters: dict) -> tuple:
     common.expand_args(args, options, args.from_list)
     if not args.paths:
         raise ValueError("no input; expected light fields as PATH arguments or --from-list")
-    many = len(args.paths) > 1
-    common.check_output_folder(args.out, ".npz", len(args.paths), "--out")
+    many = is_batch(args)
+    count = max(len(args.paths), 2 if many else 1)  # (a batch writes into folders)
+    common.check_output_folder(args.out, ".npz", count, "--out")
     if args.plot:
-        common.check_output_folder(args.plot, ".png", len(args.paths), "--plot")
+        common.check_output_folder(args.plot, ".png", count, "--plot")
     tasks, kept, redo, seen = [], [], {}, {}
-    for path in args.paths:
+    for item in args.inputs:
+        path, options = item.path, item.options
         out = destination(args.out, path, ".npz", many)
         plot = destination(args.plot, path, ".png", many, force_suffix=False) if args.plot else None
         if plot and not cv2.haveImageWriter(plot):
@@ -221,7 +234,7 @@ def plan(args: argparse.Namespace, options: dict, parameters: dict) -> tuple:
         stale = [] if args.overwrite else changes(out, plot, settings(
             path, options, args.preprocess, parameters, mask_spec))
         if stale is None:
-            kept.append(batch.Outcome(path, out, "kept"))
+            kept.append(batch.Outcome(path, out, "kept", **batch.read_as(options)))
             continue
         if stale:
             redo[out] = stale
@@ -247,7 +260,8 @@ def run_tasks(tasks: List[batch.Task], args: argparse.Namespace,
                              notice=lambda text: bar.write(f"liff detect: {text}", file=sys.stderr))
     outcomes, _ = common.run_batch(batch.run_task, [(task,) for task in tasks], args.workers,
                                    "detect", label=lambda job: job[0].source, done=done)
-    outcomes = [o or batch.Outcome(t.source, t.output, "failed", error="reported above")
+    outcomes = [o or batch.Outcome(t.source, t.output, "failed", error="reported above",
+                                   **batch.read_as(t.reader_options))
                 for t, o in zip(tasks, outcomes)]
     for outcome in outcomes:
         if outcome.error and outcome.error != "reported above":
@@ -264,10 +278,24 @@ def failure_line(outcome: batch.Outcome) -> str:
 def wants_run_manifest(args: argparse.Namespace) -> bool:
     """Whether the run writes ``OUT/manifest-<UTC time>.csv`` without a ``--manifest``:
     a batch (several inputs, or --scheduler) into a folder ``--out``."""
-    batch_run = len(args.paths) > 1 or args.scheduler
+    batch_run = is_batch(args) or args.scheduler
     # (called before the run, when a folder --out for several inputs may not exist yet)
-    folder = args.out and (os.path.isdir(args.out) or args.out.endswith(os.sep) or len(args.paths) > 1)
+    folder = args.out and (os.path.isdir(args.out) or args.out.endswith(os.sep) or is_batch(args))
     return not args.manifest and bool(batch_run and folder)
+
+
+def is_batch(args: argparse.Namespace) -> bool:
+    """Whether the inputs are a batch, written into folders with a manifest: several,
+    or given as a list file, a pattern or a folder of light fields (even if it held one:
+    its failure, too, has a manifest row), not as a light field itself."""
+    def expanded(given: str) -> bool:
+        if not os.path.exists(given):
+            return glob.has_magic(given)  # a pattern (else a missing path, which fails)
+        inside = os.path.join(os.path.abspath(given), "")
+        return os.path.isdir(given) and any(os.path.abspath(p).startswith(inside)
+                                            for p in args.paths)
+
+    return len(args.paths) > 1 or bool(args.from_list) or any(map(expanded, args.given_paths))
 
 
 @contextmanager
@@ -297,6 +325,20 @@ def check_manifest(manifest: str, args: argparse.Namespace, tasks: List[batch.Ta
                          "--manifest path (or --overwrite to replace it); nothing was written")
 
 
+def dry_run(args: argparse.Namespace) -> int:
+    """``--dry-run``: what would be read as what, and what the folders hold besides."""
+    from .inputs import describe, expand
+
+    inputs, left_out = expand(args.paths, common.reader_options(args), args.from_list)
+    for item in inputs:
+        print(describe(item))
+    for entry in left_out:
+        print(f"{entry.path}: {entry.why}")
+    print(f"{len(inputs)} input(s) would be read; {len(left_out)} file(s) left out; nothing "
+          "was read or written (--dry-run)")
+    return 0
+
+
 def describe_slopes(outcome: batch.Outcome) -> str:
     """One line part: the slope range searched, its source and the slices it took."""
     if outcome.searched is None:
@@ -313,6 +355,8 @@ def run(args: argparse.Namespace) -> int:
                           "tcp://10.0.0.5:8786 (or no --scheduler for local processes)")
     common.make_detector(common.detector_parameters(args))  # bad parameters: before any reading
     mask.check_mask_option(getattr(args, "mask", None))
+    if args.dry_run:
+        return dry_run(args)
     tasks, kept, redo = plan(args, common.reader_options(args),
                              common.detector_parameters(args, given_only=True))
     common.check_hloc_output(args.hloc, common.protected_inputs(args), "--hloc")

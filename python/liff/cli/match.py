@@ -39,8 +39,7 @@ def add_parser(sub) -> None:
     p.add_argument("--threshold", type=common.positive_float, default=3.0, help="RANSAC pixels (default 3)")
     p.add_argument("--hloc", default=None, metavar="MATCHES.h5",
                    help="also add the pair's ratio-test matches to this hloc matches file, "
-                        "under the names liff detect --hloc gives (A-NAME.png, B-NAME.png); "
-                        "pip install 'liff[hdf5]'")
+                        "under the names liff detect --hloc gives (A-NAME.png, B-NAME.png)")
     common.add_reader_options(p)
     common.add_detector_options(p)
     p.set_defaults(run=run)
@@ -59,7 +58,7 @@ def is_feature_file(path: str) -> bool:
 def features_of(path: str, args: argparse.Namespace) -> Features:
     if is_feature_file(path):
         return load_features(path)
-    light_field = common.load_light_field(path, common.reader_options(args), args.preprocess)
+    light_field = common.load_light_field(path, common.input_options(path, args), args.preprocess)
     detector = common.make_detector(common.detector_parameters(args))
     return features_from_light_field(detector, light_field)
 

@@ -43,7 +43,7 @@ def features_and_camera(path: str, args: argparse.Namespace):
         return load_features(path), None
     from .. import io
 
-    source = io.read_light_field(path, **common.reader_options(args))
+    source = io.read_light_field(path, **common.input_options(path, args))
     light_field = source.light_field
     if args.preprocess:
         from ..preprocess import prepare
@@ -80,8 +80,8 @@ def run(args: argparse.Namespace) -> int:
     without = [path for path in (args.a, args.b) if not carries_camera(path, args)]
     if camera is None and without:  # said before anything is read or detected
         raise ValueError(f"no camera calibration for {' and '.join(without)}: give --camera F B "
-                         "CX CY (and --focus-distance), --hci or --lftoolbox, or inputs that "
-                         "carry one (HCI scenes with the camera in parameters.cfg)")
+                         "CX CY (and --focus-distance), --camera-file, --hci or --lftoolbox, or "
+                         "inputs that carry one (HCI scenes with the camera in parameters.cfg)")
     fa, camera_a = features_and_camera(args.a, args)
     fb, camera_b = features_and_camera(args.b, args)
     if camera is not None:

@@ -15,15 +15,19 @@ from .mat import read_mat
 from .mosaic import read_mosaic, write_mosaic
 from .numpy_files import read_numpy
 from .pfm import read_pfm, write_pfm
+from .formats import OPTIONS, InputFormat, ReaderOption
 from .read import FORMATS, guess_format, read_light_field
 from .views import read_views, write_views
 
 __all__ = [
     "FORMATS",
     "HciScene",
+    "InputFormat",
     "IntensityWarning",
     "LensletSizeWarning",
     "LightFieldFile",
+    "OPTIONS",
+    "ReaderOption",
     "centre_views",
     "check_intensity",
     "detect_lenslet_size",

@@ -10,7 +10,7 @@ import math
 import numbers
 import os
 from dataclasses import dataclass, field
-from typing import Optional, Sequence, Tuple
+from typing import Iterable, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -259,15 +259,56 @@ def rgb_light_field(array, source: str) -> np.ndarray:
     return light_field if light_field.flags.c_contiguous else np.ascontiguousarray(light_field)
 
 
-def optional_module(name: str, extra: str, purpose: str):
-    """Imports the optional dependency ``name``; raises ImportError naming the pip extra
-    that installs it (``pip install 'liff[extra]'``) when it is missing."""
+def required_module(name: str, purpose: str):
+    """Imports the dependency ``name`` (SciPy, h5py: installed with liff); raises an
+    ImportError saying how to install it when it is missing all the same (an
+    installation that skipped dependencies)."""
     import importlib
 
     try:
         return importlib.import_module(name)
     except ImportError as error:
-        raise ImportError(f"{purpose} needs {name.split('.')[0]}: pip install 'liff[{extra}]'") from error
+        package = name.split(".")[0]
+        raise ImportError(f"{purpose} needs {package}, a dependency of liff that is not "
+                          f"installed here: pip install {package}") from error
+
+
+#: views named at the most in a MissingViewsWarning (metadata["missing"] has them all)
+MISSING_NAMED = 20
+
+
+def check_incomplete(source: str, grid: Tuple[int, int], present: int, missing: Iterable[str],
+                     numbered: str = "") -> None:
+    """The rule for incomplete view sets, shared by the readers of views: a set of any
+    pattern is read as the whole ``grid`` with the missing views at alpha 0, and a
+    :class:`liff.MissingViewsWarning` names them (the first :data:`MISSING_NAMED` of
+    ``missing``, an iterable of names, so a huge grid is not listed); a set of fewer
+    views than the grid's longer side cannot be views of that grid (names whose numbers
+    are not view indices, a few views in an enormous grid) and is refused.
+
+    Raises
+    ------
+    ValueError
+        Naming ``source``, the grid and the first missing views.
+    """
+    import itertools
+    import warnings
+
+    from .._warnings import MissingViewsWarning
+
+    T, S = grid
+    count = T * S - present
+    shown = list(itertools.islice(missing, MISSING_NAMED + 1))
+    where = f" ({numbered})" if numbered else ""
+    if present < max(T, S):
+        raise ValueError(f"{source}: {count} views missing for a {T}x{S} grid{where}: "
+                         f"{describe_missing(shown)}; expected at least {max(T, S)} views (the "
+                         f"grid's longer side) for an incomplete set: {present} view(s) in so "
+                         f"large a grid are more likely names whose numbers are not view "
+                         f"indices (give pattern= or grid=)")
+    warnings.warn(f"{source}: {count} of {T * S} views missing from the {T}x{S} grid{where}: "
+                  f"{describe_missing(shown, MISSING_NAMED)}; read with alpha 0 there, so LiFF "
+                  f"uses the {present} views present", MissingViewsWarning, stacklevel=3)
 
 
 def describe_missing(names: Sequence[str], limit: int = 5) -> str:

@@ -161,11 +161,11 @@ def detect_lenslet_size(image: np.ndarray, has_alpha: Optional[bool] = None,
         raise ValueError(f"{source}: cannot tell the lenslet size from the image ({width}x{height}; "
                          f"best period and share of variance explained per profile: "
                          f"{described}); expected an ESLF image whose lenslets show in its "
-                         f"pixels or alpha, or the size given (n=..., --lenslet N)")
+                         f"pixels or alpha, or the size given (n=N)")
     sizes = sorted(set(counted.values()))
     if len(sizes) > 1:
         raise ValueError(f"{source}: the lenslet size is ambiguous: {described}; expected the "
-                         f"profiles to agree, or the size given (n=..., --lenslet N)")
+                         f"profiles to agree, or the size given (n=N)")
     n = sizes[0]
     if not divides(n):
         others = sorted((m for m in LENSLET_SIZES if m > 2 and divides(m) and m % n and n % m),
@@ -173,7 +173,7 @@ def detect_lenslet_size(image: np.ndarray, has_alpha: Optional[bool] = None,
         if others:
             warnings.warn(f"{source}: lenslet size {n} detected ({described}), but the image "
                           f"({width}x{height}) is a whole number of {others[0]}-pixel lenslets, "
-                          f"not {n}-pixel ones; pass n= (--lenslet N) if {n} is wrong",
+                          f"not {n}-pixel ones; give the size (n=N) if {n} is wrong",
                           LensletSizeWarning, stacklevel=3)
     return n, {name: (m, round(score, 3)) for name, (m, score) in evidence.items()}
 

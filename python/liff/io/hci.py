@@ -18,7 +18,7 @@ import numpy as np
 
 from .._budget import array_bytes, check_fits
 from ..camera import HCI_CAMERA_KEYS, LightFieldCamera
-from ._shared import describe_missing
+from ._shared import LightFieldFile, check_incomplete
 from .images import decode_image, header_size
 from .pfm import read_pfm
 from .._paths import refuse_special
@@ -30,7 +30,8 @@ MAX_VIEWS = 1000  # input_Cam000 .. input_Cam999
 
 @dataclass
 class HciScene:
-    """An HCI scene: ``light_field`` (T, S, V, U, 3) uint8 BGR, the scene's disparity
+    """An HCI scene: ``light_field`` (T, S, V, U, 3) uint8 BGR (BGRA with alpha 0 at
+    missing views when views are missing: C = 4), the scene's disparity
     range, its ground-truth disparity (V, U) float32 if present, parameters.cfg, and
     the calibrated camera (:meth:`liff.LightFieldCamera.from_hci`) when parameters.cfg
     has the intrinsics and extrinsics it needs."""
@@ -60,10 +61,18 @@ def read_hci(folder: PathLike) -> HciScene:
     Raises
     ------
     ValueError
-        Naming the folder or file: no views, missing views, views of mixed sizes,
+        Naming the folder or file: no views, fewer views than the grid's longer side,
+        a view outside the grid, views of mixed sizes,
         unreadable images, a parameters.cfg whose grid or image resolution disagrees
         with the views or whose camera entries are out of range, or a
         gt_disp_lowres.pfm that is not a grey map of the views' size.
+
+    Warns
+    -----
+    MissingViewsWarning
+        When views of the grid (parameters.cfg's, else the square one whose last view
+        is the last numbered) are missing, naming them: any pattern (EPINET's 33 of 81:
+        centre row, column and diagonals) is read with alpha 0 at the missing views.
     """
     folder = os.fspath(folder)
     if not os.path.isdir(folder):
@@ -98,24 +107,30 @@ def read_hci(folder: PathLike) -> HciScene:
             if T < 1 or S < 1 or T * S > MAX_VIEWS:
                 raise ValueError(f"{cfg_path}: grid num_cams_y x num_cams_x = {T}x{S}; expected "
                                  f"a positive grid of at most {MAX_VIEWS} views")
-    if T is None:  # no grid given: a square grid of all views
-        n = int(round(np.sqrt(len(views))))
-        if n * n != len(views):
-            raise ValueError(f"{folder}: {len(views)} views and no parameters.cfg grid; expected "
-                             f"a square number of views")
-        T = S = n
-    missing = sorted(set(range(T * S)) - set(views))
-    if missing:
-        names = [f"input_Cam{i:03d}.png" for i in missing[:6]]  # 6: describe_missing adds ' ...'
-        raise ValueError(f"{folder}: views missing for a {T}x{S} grid: {describe_missing(names)}")
+    if T is None:  # no grid given: the square grid whose last view is the last numbered
+        T = S = int(round(np.sqrt(max(views) + 1)))
+        if T * S != max(views) + 1:
+            raise ValueError(f"{folder}: views numbered up to input_Cam{max(views):03d}.png and no "
+                             f"parameters.cfg grid; expected a square number of views (the last "
+                             f"one's number + 1), or parameters.cfg's num_cams_x and num_cams_y")
+    views = {i: path for i, path in views.items() if i < T * S}  # (parameters.cfg's grid)
+    if not views:
+        raise ValueError(f"{folder}: no input_CamNNN.png view inside the {T}x{S} grid of "
+                         f"parameters.cfg; expected input_Cam000 .. input_Cam{T * S - 1:03d}")
+    complete = len(views) == T * S
+    if not complete:  # any pattern (EPINET's 33 of 81): alpha 0 where views are missing
+        check_incomplete(folder, (T, S), len(views), (f"input_Cam{i:03d}.png" for i in range(T * S)
+                                                      if i not in views))
+    channels = 3 if complete else 4  # BGR, or BGR + alpha
     first = None
     lf = None
-    for index in range(T * S):
+    for index in sorted(views):
         refuse_special(views[index], "an HCI view (PNG image)")
         size = header_size(views[index])
         if first is None and size is not None:  # BGR uint8, as IMREAD_COLOR decodes
-            check_fits(folder, array_bytes((T, S, size.height, size.width, 3), 1),
-                       f"a light field of {T}x{S} views of {size.width}x{size.height} BGR")
+            check_fits(folder, array_bytes((T, S, size.height, size.width, channels), 1),
+                       f"a light field of {T}x{S} views of {size.width}x{size.height} "
+                       f"{'BGR' if complete else 'BGRA'}")
         elif first is not None and size is not None and size.height * size.width > first[0] * first[1]:
             raise _size_differs(views[index], (size.height, size.width), first, " (its header)")
         image = decode_image(views[index], cv2.IMREAD_COLOR)
@@ -123,10 +138,12 @@ def read_hci(folder: PathLike) -> HciScene:
             raise ValueError(f"{views[index]}: unreadable image")
         if first is None:
             first = image.shape
-            lf = np.empty((T, S) + first, np.uint8)
+            lf = (np.empty if complete else np.zeros)((T, S) + first[:2] + (channels,), np.uint8)
         elif image.shape != first:
             raise _size_differs(views[index], image.shape, first)
-        lf[index // S, index % S] = image
+        lf[index // S, index % S, ..., :3] = image
+        if not complete:
+            lf[index // S, index % S, ..., 3] = 255
 
     meta = parameters.get("meta", {})
     disp_min = _number(meta["disp_min"], float, "meta disp_min", cfg_path) if "disp_min" in meta else None
@@ -148,6 +165,21 @@ def read_hci(folder: PathLike) -> HciScene:
                              f"{camera.principal_point[1] * 2 + 1:g} differs from the views' "
                              f"{first[1]}x{first[0]}")
     return HciScene(lf, disp_min, disp_max, gt, parameters, camera)
+
+
+def read_hci_light_field(folder: PathLike) -> LightFieldFile:
+    """:func:`read_hci` as every reader returns: a :class:`LightFieldFile` whose
+    ``metadata`` holds ``disp_min``, ``disp_max``, ``parameters`` and ``camera``."""
+    scene = read_hci(folder)
+    metadata = {"disp_min": scene.disp_min, "disp_max": scene.disp_max,
+                "parameters": scene.parameters, "camera": scene.camera}
+    return LightFieldFile(scene.light_field, "hci", metadata, scene.gt_disparity,
+                          os.fspath(folder))
+
+
+def is_hci_scene(names) -> bool:
+    """Whether a folder holding the files ``names`` is an HCI scene (its views' names)."""
+    return any(_VIEW.match(name) for name in names)
 
 
 def _size_differs(path: str, shape, first, how: str = "") -> ValueError:

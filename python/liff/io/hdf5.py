@@ -24,7 +24,7 @@ from typing import Optional
 import numpy as np
 
 from .._budget import array_bytes, check_fits
-from ._shared import (LightFieldFile, PathLike, optional_module, pick_key, rgb_light_field,
+from ._shared import (LightFieldFile, PathLike, required_module, pick_key, rgb_light_field,
                       stored_file)
 
 #: the dataset the 2013 HCI benchmark stores the light field in
@@ -34,7 +34,7 @@ MATLAB_HEADER = b"MATLAB 7.3 MAT-file"
 
 
 def read_hdf5(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
-    """Reads a light field from an HDF5 file (through h5py; ``pip install 'liff[hdf5]'``).
+    """Reads a light field from an HDF5 file (through h5py, installed with liff).
 
     Parameters
     ----------
@@ -65,10 +65,10 @@ def read_hdf5(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
         leaves (:func:`check_dataset_fits`), however small the file (a dataset never
         written, or compressed).
     ImportError
-        If h5py is not installed, naming ``liff[hdf5]``.
+        If h5py is missing all the same, saying how to install it.
     """
     path = stored_file(path, key, "an HDF5 file", "the path of a dataset in the file")
-    h5py = optional_module("h5py", "hdf5", "reading HDF5 files")
+    h5py = required_module("h5py", "reading HDF5 files")
     with open(path, "rb") as f:
         if f.read(len(MATLAB_HEADER)) == MATLAB_HEADER:
             raise ValueError(f"{path}: a MATLAB v7.3 file (axes stored column-major); expected "
@@ -97,6 +97,22 @@ def read_hdf5(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
     light_field = rgb_light_field(np.asarray(array), f"{path}[{key!r}]")
     metadata = {"key": key, "datasets": datasets, "attributes": attributes}
     return LightFieldFile(light_field, "hdf5", metadata, None, path)
+
+
+def dataset_shapes(path: PathLike) -> Optional[list]:
+    """The shapes of the datasets in an HDF5 file (a MATLAB v7.3 file's too), from its
+    metadata alone, or None if h5py is missing or cannot open the file (the reader then
+    says what is wrong)."""
+    try:
+        import h5py
+
+        shapes: list = []
+        with h5py.File(path, "r") as f:
+            f.visititems(lambda name, node: shapes.append(node.shape)
+                         if isinstance(node, h5py.Dataset) else None)
+        return shapes
+    except Exception:  # h5py raises OSError, KeyError, ValueError, ... on damaged files
+        return None
 
 
 def check_dataset_fits(source: str, dataset) -> None:

@@ -29,7 +29,7 @@ import numpy as np
 
 from .._budget import check_fits, over_budget, room_bytes
 from .hdf5 import check_dataset_fits
-from ._shared import (LightFieldFile, PathLike, check_disparity, optional_module, pick_key,
+from ._shared import (LightFieldFile, PathLike, check_disparity, required_module, pick_key,
                       rgb_light_field, stored_file)
 
 #: the variable the Light Field Toolbox and the 4D benchmark's tools save the light field in
@@ -42,7 +42,7 @@ MATLAB_CLASSES = ("uint8", "uint16", "single", "double")
 
 def read_mat(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
     """Reads a light field from a MATLAB ``.mat`` file (v4/v5/v7 through SciPy, v7.3
-    through h5py; ``pip install 'liff[mat]'``).
+    through h5py; both are installed with liff).
 
     Parameters
     ----------
@@ -70,10 +70,11 @@ def read_mat(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
         candidate variables and no ``key``, or a variable that is not a light field
         (shape, channels, class other than uint8, uint16, single, double).
     ImportError
-        If SciPy (or, for v7.3 files, h5py) is not installed, naming ``liff[mat]``.
+        If SciPy (or, for v7.3 files, h5py) is missing all the same, saying how to
+        install it.
     """
     path = stored_file(path, key, "a MATLAB .mat file", "the name of a variable in the file")
-    scipy_io = optional_module("scipy.io", "mat", "reading .mat files")
+    scipy_io = required_module("scipy.io", "reading .mat files")
     try:
         major, _ = scipy_io.matlab.matfile_version(path)
     except Exception as e:  # scipy raises several kinds on a file that is not a MAT-file
@@ -153,7 +154,7 @@ def _read_v5(path: str, key: Optional[str], scipy_io):
 
 def _read_v73(path: str, key: Optional[str]):
     """(array (t, s, v, u[, c]), disparity or None, key, variable names) of a v7.3 file."""
-    h5py = optional_module("h5py", "mat", "reading MATLAB v7.3 .mat files")
+    h5py = required_module("h5py", "reading MATLAB v7.3 .mat files")
     try:
         with h5py.File(path, "r") as f:
             names = sorted(name for name in f.keys() if not name.startswith("#"))  # #refs#, #subsystem#

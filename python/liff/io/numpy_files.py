@@ -105,3 +105,29 @@ def check_stored_array_fits(source: str, stored) -> None:
     except Exception:  # numpy raises several kinds on a bad header
         return
     check_fits(source, array_bytes(shape, dtype.itemsize), f"an array of shape {shape} {dtype}")
+
+
+def stored_shapes(path: PathLike) -> Optional[list]:
+    """The shapes of the arrays a ``.npy`` or ``.npz`` file holds, from their headers
+    alone (an npz member's header is all that is inflated), or None if the file cannot
+    be read that way (the reader then says what is wrong with it)."""
+    import zipfile
+
+    def header_shape(stored) -> tuple:
+        version = np.lib.format.read_magic(stored)
+        read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                       else np.lib.format.read_array_header_2_0)
+        return read_header(stored)[0]
+
+    try:
+        if zipfile.is_zipfile(path):
+            with zipfile.ZipFile(path) as archive:
+                shapes = []
+                for name in archive.namelist():
+                    with archive.open(name) as member:
+                        shapes.append(header_shape(member))
+                return shapes
+        with open(path, "rb") as f:
+            return [header_shape(f)]
+    except Exception:  # numpy and zipfile raise many kinds on a damaged file
+        return None

@@ -1,8 +1,16 @@
 """PFM (portable float map) images, as the HCI benchmark stores disparity and depth.
 
-A PFM file is a header ``Pf`` (grey) or ``PF`` (colour), ``width height``, and a scale
-whose sign gives the byte order (negative: little-endian), then float32 rows stored
-bottom-up. :func:`read_pfm` returns rows top-down, as every image in liff.
+A PFM file is a header ``Pf`` (grey) or ``PF`` (colour, RGB), ``width height``, and a
+scale whose sign gives the byte order (negative: little-endian, positive: big-endian),
+then float32 rows stored bottom-up. :func:`read_pfm` returns rows top-down, as every
+image in liff.
+
+Header variants read: tokens separated by any whitespace (spaces, tabs, several lines,
+``width`` and ``height`` on lines of their own), lines ending in LF or CR+LF (Windows
+tools; the CR+LF after the scale ends the header, as its LF does), and comment lines
+(``#`` to the end of the line, as PNM allows) before any token. The header ends with
+the line end (or the one whitespace byte) after the scale; where the file's size says
+a CR+LF's LF is the first data byte, it is taken as data.
 """
 
 from __future__ import annotations
@@ -21,8 +29,10 @@ PathLike = Union[str, os.PathLike]
 #: bytes the header may take at the most, whitespace included (a header padded past them
 #: is refused rather than scanned)
 HEADER_BYTES = 4096
-#: the header: four whitespace-separated tokens, then the one whitespace byte ending it
-HEADER = re.compile(rb"\s*(\S+)\s+(\S+)\s+(\S+)\s+(\S+)\s")
+#: what may separate header tokens: whitespace and comment lines (# to the line end)
+_GAP = rb"(?:\s|#[^\r\n]*[\r\n])"
+#: the header: four tokens, then the line end (CR+LF, or one whitespace byte) ending it
+HEADER = re.compile(_GAP + rb"*([^\s#]+)" + (_GAP + rb"+([^\s#]+)") * 3 + rb"(\r\n|\s)")
 
 
 def read_pfm(path: PathLike) -> np.ndarray:
@@ -30,14 +40,17 @@ def read_pfm(path: PathLike) -> np.ndarray:
 
     Returns
     -------
-    image : ndarray of float32, shape (V, U) for ``Pf`` or (V, U, 3) for ``PF``,
-        rows top-down.
+    image : ndarray of float32, shape (V, U) for ``Pf`` or (V, U, 3) for ``PF`` (RGB,
+        as stored), rows top-down, whichever byte order the file has. Every header
+        variant of the module's docstring is read.
 
     Raises
     ------
     ValueError
-        If the file is not a well-formed PFM (names the file and what was wrong),
-        including a header longer than ``HEADER_BYTES``.
+        If the file is not a well-formed PFM (names the file and what was wrong):
+        another magic than ``Pf`` / ``PF``, sizes that are not positive whole numbers,
+        a zero or non-finite scale, fewer data bytes than the header states, or a
+        header longer than ``HEADER_BYTES``.
     MemoryError
         If the header's size does not fit the memory budget (checked before the pixels
         are read; names the file, the size and the budget).
@@ -52,9 +65,12 @@ def read_pfm(path: PathLike) -> np.ndarray:
             count = width * height * channels
             # The bytes read and the float32 array made of them, before reading either.
             check_fits(path, 8 * count, f"a PFM image of {width}x{height}x{channels} float32")
+            size = os.fstat(f.fileno()).st_size
+            if head[pos - 2:pos] == b"\r\n" and size - pos == 4 * count - 1:
+                pos -= 1  # (a CR ended the header, and the LF is the first data byte)
             f.seek(pos)
             data = f.read(4 * count)
-            stored = os.fstat(f.fileno()).st_size - pos
+            stored = size - pos
     except OSError as e:
         raise ValueError(f"{path}: cannot read ({e.strerror}); expected a PFM file") from None
     if len(data) < 4 * count:
@@ -75,7 +91,7 @@ def _header_tokens(path: str, head: bytes) -> Tuple[List[bytes], int]:
             raise ValueError(f"{path}: no PFM header in the first {HEADER_BYTES} bytes; expected "
                              "'Pf|PF', width, height, scale separated by whitespace")
         raise ValueError(f"{path}: truncated PFM header; expected 'Pf|PF', width, height, scale")
-    return list(match.groups()), match.end()
+    return list(match.groups()[:4]), match.end()
 
 
 def _header_values(path: str, tokens: List[bytes]) -> Tuple[int, int, float, int]:

@@ -6,14 +6,14 @@ dataset names with a scene id before the indices, ``0421_03_07.png`` (scene 421,
 column 7). Indices need not start at 0 or 1 (a crop of a larger grid, rows 8..10, reads
 as a 3-row grid) and need not be zero-padded.
 
-Incomplete sets (a cross or star of views through the centre, as some datasets ship)
-are read as the whole grid with a weight (alpha) of 0 for the missing views, so that
-LiFF uses the views that exist (docs/CONVENTIONS.md, alpha).
+Incomplete sets of any pattern (a cross or star of views through the centre, as some
+datasets ship) are read as the whole grid with a weight (alpha) of 0 for the missing
+views, so that LiFF uses the views that exist (docs/CONVENTIONS.md, alpha); a
+MissingViewsWarning names them.
 """
 
 from __future__ import annotations
 
-import itertools
 import os
 import re
 from typing import Dict, List, Optional, Pattern, Tuple, Union
@@ -22,7 +22,7 @@ import numpy as np
 
 from .._budget import array_bytes, check_fits
 from ._shared import (IMAGE_SUFFIXES, LightFieldFile, PathLike, as_image, check_writable,
-                      describe_missing, grid_size, read_image, write_image)
+                      check_incomplete, grid_size, read_image, write_image)
 from .images import header_size
 
 # A run of two or more whole numbers joined by "_", the first number at the start of the
@@ -73,6 +73,21 @@ def _indices_in_runs(folder: str, runs: Dict[str, Tuple[int, ...]]) -> Dict[str,
                      f"the others the same in every name (or pattern=...)")
 
 
+def view_names(names, pattern: Union[str, Pattern, None] = None) -> List[str]:
+    """The file names among ``names`` that :func:`read_views` takes as views: images
+    whose name carries view indices (the default rule), or names ``pattern`` matches
+    whole. Names only: nothing is opened."""
+    regex = re.compile(pattern) if isinstance(pattern, str) else pattern
+    if regex is not None:
+        return [name for name in names if regex.fullmatch(name)]
+    found = []
+    for name in names:
+        stem, suffix = os.path.splitext(name)
+        if suffix.lower() in IMAGE_SUFFIXES and NUMBER_RUN.search(stem):
+            found.append(name)
+    return found
+
+
 def _find_views(folder: str, regex: Optional[Pattern], grid, linear: bool
                 ) -> Dict[Tuple[int, int], str]:
     """{(t, s) as numbered in the names: file name} for the folder's views; with a
@@ -107,43 +122,6 @@ def _find_views(folder: str, regex: Optional[Pattern], grid, linear: bool
     return numbered
 
 
-def centre_indices(count: int) -> range:
-    """The centre index of ``count`` views, or the two centre ones when ``count`` is even."""
-    return range((count - 1) // 2, count // 2 + 1)
-
-
-def pattern_problem(present, T: int, S: int) -> Optional[str]:
-    """Why the views ``present`` ({(t, s)}, 0-based) of a T x S grid are not a usable
-    incomplete set, or None if they are.
-
-    Usable: the set holds the whole centre row and column (both middle rows / columns
-    for an even count) and is symmetric about the centre (view (t, s) present means
-    view (T-1-t, S-1-s) present): a cross or a star of views through the centre, or any
-    larger symmetric set. Missing views scattered in an otherwise full grid (an
-    incomplete download) are not, nor are a few views in a large grid (names that are
-    not view indices).
-    """
-    present = set(present)
-    rows, cols = centre_indices(T), centre_indices(S)
-
-    def in_cross(t: int, s: int) -> bool:
-        return t in rows or s in cols
-
-    # Counted from the views present, so that a huge grid costs nothing.
-    cross_size = len(rows) * S + len(cols) * T - len(rows) * len(cols)
-    absent = cross_size - sum(in_cross(t, s) for t, s in present)
-    if absent:
-        cross = itertools.chain(((t, s) for t in rows for s in range(S)),
-                                ((t, s) for s in cols for t in range(T)))
-        t, s = next(view for view in cross if view not in present)
-        return f"the centre row and column lack {absent} view(s), e.g. (t={t}, s={s})"
-    for t, s in sorted(present):
-        if (T - 1 - t, S - 1 - s) not in present:
-            return (f"view (t={t}, s={s}) is present but its mirror image about the centre "
-                    f"(t={T - 1 - t}, s={S - 1 - s}) is not")
-    return None
-
-
 def _arrange(folder: str, numbered: Dict[Tuple[int, int], str], grid, linear: bool):
     """(T, S, first indices (t0, s0), {(t, s) 0-based: name})."""
     if linear:
@@ -168,19 +146,11 @@ def _arrange(folder: str, numbered: Dict[Tuple[int, int], str], grid, linear: bo
             raise ValueError(f"{folder}: names number views up to a {found_t}x{found_s} grid "
                              f"({_numbered_from(origin, linear)}); expected grid={T, S} to "
                              f"hold them")
-    missing_count = T * S - len(views)  # views holds distinct (t, s) inside the grid
-    if missing_count:
-        problem = pattern_problem(views, T, S)
-        if problem:
-            # Name the first few without listing a grid that huge indices can make enormous.
-            missing = itertools.islice(((t, s) for t in range(T) for s in range(S)
-                                        if (t, s) not in views), 6)
-            shown = [f"(t={t + origin[0]}, s={s + origin[1]})" for t, s in missing]
-            raise ValueError(
-                f"{folder}: {missing_count} views missing for a {T}x{S} grid "
-                f"({_numbered_from(origin, linear)}): {describe_missing(shown)}; expected every "
-                f"view, or an incomplete set holding the centre row and column and symmetric "
-                f"about the centre (a cross or star of views), but {problem}")
+    if T * S > len(views):  # views holds distinct (t, s) inside the grid
+        # (a generator: a grid that huge indices make enormous is not listed)
+        missing = (f"(t={t + origin[0]}, s={s + origin[1]})" for t in range(T) for s in range(S)
+                   if (t, s) not in views)
+        check_incomplete(folder, (T, S), len(views), missing, _numbered_from(origin, linear))
     return T, S, origin, views
 
 
@@ -215,8 +185,8 @@ def read_views(folder: PathLike, grid=None, pattern: Union[str, Pattern, None] =
     -------
     LightFieldFile
         ``light_field`` (T, S, V, U[, C]) as stored (``cv2.IMREAD_UNCHANGED``; BGR,
-        alpha kept as the last channel). When views are missing from a usable pattern
-        (see below) the missing views are 0 with an alpha of 0, and views without alpha
+        alpha kept as the last channel). When views are missing (see Warns) the missing
+        views are 0 with an alpha of 0, and views without alpha
         get one (full: 255 for uint8, 65535 for uint16, 1.0 for floats), so C = 1 or 3
         becomes 2 or 4. ``metadata``: ``grid`` (T, S), ``first_index`` (t0, s0), the
         indices of the first row and column as numbered in the names, ``files`` (T x S
@@ -228,16 +198,15 @@ def read_views(folder: PathLike, grid=None, pattern: Union[str, Pattern, None] =
     ------
     ValueError
         Naming the folder or file: not a folder, no views, two files for one view, names
-        numbered in more than one way, views missing other than in a usable pattern,
-        names outside ``grid``, or views of differing size, channel count or dtype.
+        numbered in more than one way, fewer views than the grid's longer side, names
+        outside ``grid``, or views of differing size, channel count or dtype.
 
-    Notes
+    Warns
     -----
-    An incomplete set is read only if it holds the whole centre row and column (both
-    middle ones for an even count) and is symmetric about the centre: a cross or a
-    star of views through the centre, for example. Anything else with views missing
-    is refused, naming the first missing views (an incomplete download should not read
-    as a light field with holes).
+    MissingViewsWarning
+        When views are missing, naming them: an incomplete set of any pattern (a cross,
+        a star, HCI's EPINET subset, a view lost in a download) is read as the whole
+        grid with alpha 0 at the missing views (:func:`liff.io._shared.check_incomplete`).
     """
     folder = os.fspath(folder)
     if not os.path.isdir(folder):

@@ -1,0 +1,188 @@
+"""Datasets as they sit on disk (issue 31): folders expanded entry by entry by names and
+content (liff.io.layout), ``liff detect --dry-run``, reader options per input (applied
+where they fit, per line of a list file, said in the manifest), a manifest row for a
+failing input, flags in messages."""
+
+from __future__ import annotations
+
+import csv
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import liff
+from liff.cli import main
+from liff.cli.inputs import expand
+from liff.io.layout import walk
+
+
+def read_manifest(folder: Path) -> list:
+    (manifest,) = [p for p in folder.iterdir() if p.name.startswith("manifest-")]
+    with open(manifest, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def lenslet_image(path: Path, n: int = 5, size: int = 32, seed: int = 0) -> Path:
+    """A lenslet (ESLF) image as the Stanford archive stores one, under ``path``'s name."""
+    lf = liff.synthetic.render_disks(liff.synthetic.paper_disks(n=8, shape=(n, n, size, size),
+                                                                seed=seed), (n, n, size, size))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    liff.io.write_eslf(path, np.round(np.clip(lf, 0, 1) * 255).astype(np.uint8), n)
+    return path
+
+
+def light_field_npz(path: Path, shape=(3, 3, 24, 24), key="light_field") -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez(path, **{key: liff.synthetic.textured_layers(shape, seed=1).light_field})
+    return path
+
+
+def views_folder(folder: Path, shape=(3, 3, 16, 16)) -> Path:
+    liff.io.write_views(folder, np.zeros(shape, np.uint8))
+    return folder
+
+
+def taken(entries) -> list:
+    return [(os.path.basename(e.path), e.format) for e in entries if e.is_input]
+
+
+@pytest.mark.parametrize("n, size", [(5, 24), (7, 40)])
+def test_a_stanford_style_folder_of_lenslet_images_with_their_real_names(tmp_path, n, size):
+    """The archive's *_eslf.png, *.eslf.png and plain names, with liff synth's sidecars
+    beside them: each image is a lenslet image, no sidecar is an input."""
+    names = ["IMG_1085_eslf.png", "flowers_plants_12_eslf.png", "occlusions_3.eslf.png",
+             "IMG_2184.png", "2016-06-12_10-15-35.png"]
+    for i, name in enumerate(names):
+        lenslet_image(tmp_path / "lytro" / name, n, size, seed=i)
+    np.save(tmp_path / "lytro" / "IMG_1085_eslf.slopes.npy", np.zeros((size, size)))
+    (tmp_path / "lytro" / "IMG_1085_eslf.png.truth.json").write_text("{}")
+    entries = walk(str(tmp_path / "lytro"))
+    assert taken(entries) == [(name, "eslf") for name in sorted(names)]
+    assert sorted(os.path.basename(e.path) for e in entries if not e.is_input) == [
+        "IMG_1085_eslf.png.truth.json", "IMG_1085_eslf.slopes.npy"]
+    # the README's example, --keep-views applied to every input (each is a lenslet image)
+    out = tmp_path / "features"
+    assert main(["detect", str(tmp_path / "lytro"), "--keep-views", str(n - 2), "--out", str(out),
+                 "--lenslet", str(n), "--contrast-threshold", "0.01"]) == 0
+    rows = read_manifest(out)
+    assert [r["status"] for r in rows] == ["done"] * len(names)
+    assert {r["reader_options"] for r in rows} == {f"--lenslet {n} --keep-views {n - 2}"}
+    assert {r["format"] for r in rows} == {"eslf"}
+
+
+def make_dataset(root: Path, size: int) -> dict:
+    """A dataset folder of every kind: a lenslet PNG at the top, a folder of views, an
+    HCI scene (with its ground truth and a mask image), .npz files, a .npy that is a slope
+    map, feature files and a manifest of an earlier run."""
+    lenslet_image(root / "overview.png", 5, size)
+    views_folder(root / "scene_a", (3, 3, size, size))
+    hci = root / "hci" / "boxes"
+    for i in range(9):
+        liff.io.write_views(hci, np.zeros((1, 1, size, size, 3), np.uint8),
+                            pattern=f"input_Cam{i:03d}.png")
+    liff.io.write_pfm(hci / "gt_disp_lowres.pfm", np.zeros((size, size), np.float32))
+    liff.io.write_views(hci, np.zeros((1, 1, size, size), np.uint8), pattern="valid_mask.png")
+    light_field_npz(root / "scene_b.npz", (3, 3, size, size))
+    light_field_npz(root / "more" / "scene_c.npz", (5, 5, size, size), key="lf")
+    np.save(root / "more" / "scene_c.slopes.npy", np.zeros((size, size)))
+    np.save(root / "more" / "depth.npy", np.zeros((size, size)))  # no 4-D array: not an input
+    feats = root / "features"
+    feats.mkdir()
+    np.savez(feats / "scene_b.npz", keypoints=np.zeros((2, 6)), descriptors=np.zeros((2, 128)))
+    (feats / "manifest-20260101-000000.csv").write_text("input,output\n")
+    return {"inputs": [("boxes", "hci"), ("scene_c.npz", "npz"), ("overview.png", "eslf"),
+                       ("scene_a", "views"), ("scene_b.npz", "npz")],
+            "left_out": ["depth.npy", "gt_disp_lowres.pfm", "manifest-20260101-000000.csv",
+                         "scene_b.npz", "scene_c.slopes.npy"]}
+
+
+@pytest.mark.parametrize("size", [16, 28])
+def test_a_mixed_dataset_folder_is_expanded_entry_by_entry(tmp_path, size):
+    """Issue 31: one lenslet PNG at the top made the whole folder 'one folder of views'."""
+    expected = make_dataset(tmp_path / "data", size)
+    inputs, left_out = expand([str(tmp_path / "data")], {})
+    assert [(os.path.basename(i.path), i.format) for i in inputs] == expected["inputs"]
+    assert sorted(os.path.basename(e.path) for e in left_out) == expected["left_out"]
+    # feature files are inputs where liff takes them (colmap, sfm)
+    inputs, _ = expand([str(tmp_path / "data")], {}, features=True)
+    assert "features" in {os.path.basename(os.path.dirname(i.path)) for i in inputs}
+
+
+def test_dry_run_lists_what_would_be_read_as_what(tmp_path, capsys):
+    make_dataset(tmp_path / "data", 16)
+    assert main(["detect", str(tmp_path / "data"), "--dry-run", "--key", "lf",
+                 "--out", str(tmp_path / "out")]) == 0
+    out = capsys.readouterr().out
+    assert f"{tmp_path / 'data' / 'overview.png'}: eslf (lenslet image" in out
+    assert f"{tmp_path / 'data' / 'scene_a'}: views (views: 9 images" in out
+    assert f"{tmp_path / 'data' / 'more' / 'scene_c.npz'}: npz (named *.npz); --key lf" in out
+    assert f"{tmp_path / 'data' / 'features' / 'scene_b.npz'}: not an input: a npz file holding " \
+           "no 4-D or 5-D array" in out
+    assert "scene_c.slopes.npy: not an input: written by liff" in out
+    assert "gt_disp_lowres.pfm: not an input: not a light field name" in out
+    assert "5 input(s) would be read; 5 file(s) left out; nothing was read or written" in out
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_list_mixing_formats_carries_options_per_line(tmp_path):
+    eslf = lenslet_image(tmp_path / "IMG_0001.eslf.png")
+    plain = lenslet_image(tmp_path / "lytro" / "IMG_0002.png", 7, 24)
+    npz = light_field_npz(tmp_path / "a.npz", key="lf")
+    todo = tmp_path / "todo.txt"
+    todo.write_text(f"# mixed\n{eslf} --lenslet 5 --keep-views 3\n{npz}\n"
+                    f"'{plain}' --lenslet 7   # quoted, with a comment\n")
+    inputs, _ = expand([], {"key": "lf", "bit_depth": 8}, str(todo))
+    assert [(i.format, i.options) for i in inputs] == [
+        ("eslf", {"n": 5, "keep": 3, "bit_depth": 8, "format": "eslf"}),
+        ("npz", {"key": "lf", "bit_depth": 8, "format": "npz"}),
+        ("eslf", {"n": 7, "bit_depth": 8, "format": "eslf"})]
+    todo.write_text(f"{npz} --lenslet 14\n")
+    with pytest.raises(ValueError, match=rf"{todo}: {npz}: --lenslet do not apply to format 'npz'; "
+                                         r"expected --key, --bit-depth"):
+        expand([], {}, str(todo))
+    todo.write_text(f"{npz} --lenslet fourteen\n")
+    with pytest.raises(ValueError, match=rf"{todo}, line 1: .*--lenslet.*fourteen"):
+        expand([], {}, str(todo))
+    todo.write_text(f"{npz} --n 14\n")
+    with pytest.raises(ValueError, match=rf"{todo}, line 1: --n 14 is not a reader option; "
+                                         r"expected --format, --grid, --lenslet"):
+        expand([], {}, str(todo))
+
+
+def test_options_apply_where_they_fit_and_the_manifest_says_where(tmp_path, capsys):
+    lenslet_image(tmp_path / "data" / "IMG_0001_eslf.png")
+    light_field_npz(tmp_path / "data" / "b.npz", key="lf")
+    todo = tmp_path / "todo.txt"
+    todo.write_text(f"{tmp_path / 'data' / 'IMG_0001_eslf.png'}\n{tmp_path / 'data' / 'b.npz'}\n")
+    out = tmp_path / "out"
+    assert main(["detect", "--from-list", str(todo), "--lenslet", "5", "--key", "lf",
+                 "--out", str(out)]) == 0
+    rows = {os.path.basename(r["input"]): r for r in read_manifest(out)}
+    assert rows["IMG_0001_eslf.png"]["reader_options"] == "--lenslet 5"
+    assert rows["b.npz"]["reader_options"] == "--key lf"
+    assert rows["b.npz"]["format"] == "npz" and rows["IMG_0001_eslf.png"]["format"] == "eslf"
+    # an option that fits no input is an error naming its flag and the formats it fits
+    assert main(["detect", str(tmp_path / "data" / "b.npz"), "--keep-views", "3",
+                 "--out", str(tmp_path / "x.npz")]) == 1
+    err = capsys.readouterr().err
+    assert "option(s) --keep-views do not apply to format 'npz' of any input (--keep-views: " \
+           "eslf); expected --key, --bit-depth" in err and "keep" not in err.replace("--keep-views", "")
+
+
+def test_the_only_input_failing_has_its_manifest_row_naming_the_flag(tmp_path, capsys):
+    """Issue 31: one lenslet image whose size cannot be told, in a folder: the run fails
+    with a manifest row whose error names --lenslet, not the keyword n."""
+    folder = tmp_path / "lytro"
+    folder.mkdir()
+    rng = np.random.default_rng(0)
+    liff.io.write_views(folder, rng.integers(0, 255, (1, 1, 45, 40), np.uint8),
+                        pattern="IMG_0001.png")  # noise: no lenslets to see
+    out = tmp_path / "features"
+    assert main(["detect", str(folder), "--out", str(out)]) == 1
+    (row,) = read_manifest(out)
+    assert row["status"] == "failed" and row["format"] == "eslf"
+    assert "cannot tell the lenslet size" in row["error"] and "(--lenslet N)" in row["error"]
+    assert "n=" not in row["error"]
+    assert "(--lenslet N)" in capsys.readouterr().err

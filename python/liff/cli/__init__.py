@@ -15,7 +15,7 @@ import threading
 from typing import List, Optional
 
 from .. import __version__, opencvVersion
-from . import colmap, common, demo, detect, match, pose, synth
+from . import colmap, common, demo, detect, match, pose, progress, synth
 
 COMMANDS = (detect, match, pose, colmap, synth, demo)
 
@@ -32,6 +32,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
         command.add_parser(sub)
+    for subparser in sub.choices.values():
+        subparser.add_argument("--quiet", action="store_true",
+                               help="print no progress or step lines on stderr (errors and "
+                                    "warnings still show)")
     return parser
 
 
@@ -47,6 +51,7 @@ def _terminate(signum, frame):
 
 def main(argv: Optional[List[str]] = None) -> int:
     args = build_parser().parse_args(argv)
+    progress.QUIET = args.quiet
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
     try:
@@ -61,5 +66,6 @@ def main(argv: Optional[List[str]] = None) -> int:
         print(f"liff {args.command}: {common.name_flags(str(error))}", file=sys.stderr)
         return 1
     finally:
+        progress.QUIET = False
         if in_main_thread:  # (None: a handler not set from Python; the default stands for it)
             signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)

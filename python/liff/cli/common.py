@@ -8,8 +8,6 @@ import math
 import os
 import re
 import sys
-import time
-from contextlib import contextmanager
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Callable, Dict, List, Optional, Sequence, Tuple
 
@@ -18,8 +16,8 @@ import numpy as np
 from .. import _budget
 from .._budget import held_bytes  # noqa: F401 (liff.cli.common.held_bytes)
 from .._detector import PARAMETERS, LiFF
-from .._paths import refuse_special
 from .._processes import stop_now
+from .progress import progress, step  # noqa: F401 (liff.cli.common.progress, .step)
 from ..io.images import IMAGE_SUFFIXES
 
 FILE_ENDINGS = IMAGE_SUFFIXES + (".npz", ".npy", ".db")
@@ -495,24 +493,6 @@ def _set_threads(threads: int) -> None:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
     liff.setNumThreads(threads)
-
-
-@contextmanager
-def step(text: str):
-    """Says on stderr that a step without a progress bar starts, and how long it took."""
-    print(f"{text} ...", file=sys.stderr, flush=True)
-    start = time.perf_counter()
-    yield
-    print(f"{text}: done in {time.perf_counter() - start:.1f} s", file=sys.stderr, flush=True)
-
-
-def progress(iterable=None, desc: str = "liff", total: Optional[int] = None, unit: str = "file"):
-    """A tqdm progress bar on stderr, shown when stderr is a terminal or LIFF_PROGRESS
-    is set (so logs and tests stay clean)."""
-    from tqdm import tqdm
-
-    return tqdm(iterable, desc=desc, total=total, unit=unit, file=sys.stderr,
-                disable=None if "LIFF_PROGRESS" not in os.environ else False)
 
 
 def _progress(total: int, command: str):

@@ -1,0 +1,137 @@
+"""What a command says on stderr while the user waits: a tqdm bar on a terminal, plain
+lines in a log (stderr not a terminal: nohup, CI, a job scheduler), nothing with
+``--quiet``.
+
+In a log, a batch prints a line per finished input (other units, such as pairs or poses,
+at most one every :data:`LINE_SECONDS`, and the last), and anything that runs long
+without finishing an item (one large light field, a mapping step) prints a line every
+:data:`HEARTBEAT_SECONDS`. ``LIFF_PROGRESS`` set in the environment forces the bar.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+import time
+from contextlib import contextmanager
+from typing import Iterable, Optional
+
+QUIET = False
+"""Set by the commands' ``--quiet``: no bars, progress or step lines (errors still shown)."""
+
+LINE_SECONDS = 10.0
+"""In a log, the shortest time between two progress lines of units other than files."""
+
+HEARTBEAT_SECONDS = 30.0
+"""In a log, a line at least this often while a step or an item is still running."""
+
+
+def _bar_wanted() -> bool:
+    return "LIFF_PROGRESS" in os.environ or sys.stderr.isatty()
+
+
+class _Heartbeat:
+    """Calls ``say()`` every :data:`HEARTBEAT_SECONDS` of silence (``last`` is when
+    something was last said) from a daemon thread, until closed."""
+
+    def __init__(self, say):
+        self._say = say
+        self.lock = threading.Lock()
+        self.last = time.monotonic()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.wait(min(1.0, HEARTBEAT_SECONDS / 4)):
+            with self.lock:
+                if time.monotonic() - self.last >= HEARTBEAT_SECONDS:
+                    self._say()
+                    self.last = time.monotonic()
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2)
+
+
+class LineProgress:
+    """tqdm's interface as we use it (iteration, ``update``, ``write``, a context
+    manager), printed as lines for a log: ``DESC: N/TOTAL UNITs done, S s``."""
+
+    def __init__(self, iterable: Optional[Iterable] = None, desc: str = "liff",
+                 total: Optional[int] = None, unit: str = "file"):
+        self.iterable = iterable
+        if total is None and iterable is not None and hasattr(iterable, "__len__"):
+            total = len(iterable)
+        self.desc, self.total, self.unit, self.n = desc, total, unit, 0
+        self.start = time.monotonic()
+        self._heartbeat = _Heartbeat(lambda: self._line(", still working"))
+
+    def _line(self, note: str = "") -> None:
+        total = f"/{self.total}" if self.total is not None else ""
+        print(f"{self.desc}: {self.n}{total} {self.unit}(s) done, "
+              f"{time.monotonic() - self.start:.0f} s{note}", file=sys.stderr, flush=True)
+
+    def update(self, n: int = 1) -> None:
+        with self._heartbeat.lock:
+            self.n += n
+            now = time.monotonic()
+            if (self.unit == "file" or self.n == self.total
+                    or now - self._heartbeat.last >= LINE_SECONDS):
+                self._line()
+                self._heartbeat.last = now
+
+    def write(self, text: str, file=None) -> None:
+        with self._heartbeat.lock:
+            print(text, file=file or sys.stderr, flush=True)
+
+    def close(self) -> None:
+        self._heartbeat.close()
+
+    def __iter__(self):
+        try:
+            for item in self.iterable:
+                yield item
+                self.update()
+        finally:
+            self.close()
+
+    def __enter__(self) -> "LineProgress":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def progress(iterable: Optional[Iterable] = None, desc: str = "liff",
+             total: Optional[int] = None, unit: str = "file"):
+    """Progress on stderr: a tqdm bar on a terminal (or with ``LIFF_PROGRESS`` set),
+    :class:`LineProgress` lines in a log, a silent bar with ``--quiet``."""
+    from tqdm import tqdm
+
+    if QUIET or _bar_wanted():
+        return tqdm(iterable, desc=desc, total=total, unit=unit, file=sys.stderr,
+                    disable=QUIET)
+    return LineProgress(iterable, desc, total, unit)
+
+
+@contextmanager
+def step(text: str):
+    """Says on stderr that a step without a progress bar starts and how long it took;
+    in a log, also a line every :data:`HEARTBEAT_SECONDS` while it runs. Nothing with
+    ``--quiet``."""
+    if QUIET:
+        yield
+        return
+    print(f"{text} ...", file=sys.stderr, flush=True)
+    start = time.monotonic()
+    heartbeat = None if _bar_wanted() else _Heartbeat(
+        lambda: print(f"{text}: still running, {time.monotonic() - start:.0f} s",
+                      file=sys.stderr, flush=True))
+    try:
+        yield
+    finally:
+        if heartbeat:
+            heartbeat.close()
+    print(f"{text}: done in {time.monotonic() - start:.1f} s", file=sys.stderr, flush=True)

@@ -144,3 +144,66 @@ def test_the_command_line_refuses_a_foreign_hloc_file(tmp_path, capsys):
     assert "--hloc" in capsys.readouterr().err
     assert main(["detect", str(lf), "--out", str(tmp_path / "f.npz"), "--hloc-images", str(tmp_path)]) == 1
     assert "--hloc-images without --hloc" in capsys.readouterr().err
+
+
+def test_other_features_of_a_name_are_replaced_only_with_overwrite(tmp_path, capsys):
+    """Matches index keypoints: replacing an image's features silently would leave the
+    match files made from them stale (issue 29)."""
+    from liff.cli import main
+
+    for folder, seed in (("lf", 0), ("lf", 1), ("lf", 2), ("other", 7)):  # other/scene0: another capture
+        name = f"scene{seed}" if folder == "lf" else "scene0"
+        assert main(["synth", "disks", "--out", str(tmp_path / folder / f"{name}.npz"), "--views", "5",
+                     "--size", "96", "128", "--seed", str(seed)]) == 0
+    feats, matches = tmp_path / "feats-liff.h5", tmp_path / "matches-liff.h5"
+    assert main(["detect", str(tmp_path / "lf"), "--out", str(tmp_path / "feats"), "--hloc", str(feats)]) == 0
+    a, b, c = (str(tmp_path / "feats" / f"scene{i}.npz") for i in range(3))
+    assert main(["match", a, b, "--hloc", str(matches)]) == 0
+    assert main(["match", a, c, "--hloc", str(matches)]) == 0
+    before = hloc_get_keypoints(feats, "scene0.png")
+    capsys.readouterr()
+    other = str(tmp_path / "other-feats" / "scene0.npz")
+    assert main(["detect", str(tmp_path / "other" / "scene0.npz"), "--out", other, "--hloc", str(feats)]) == 1
+    error = capsys.readouterr().err
+    assert "other features of scene0.png" in error and "--overwrite" in error
+    np.testing.assert_array_equal(hloc_get_keypoints(feats, "scene0.png"), before)  # untouched
+    # the same features again are no change
+    assert main(["detect", str(tmp_path / "lf" / "scene0.npz"), "--out", a, "--hloc", str(feats)]) == 0
+    assert "replaced" not in capsys.readouterr().err
+    assert main(["detect", str(tmp_path / "other" / "scene0.npz"), "--out", other, "--hloc", str(feats),
+                 "--overwrite"]) == 0
+    assert "replaced the features of scene0.png" in capsys.readouterr().err
+    assert hloc_get_keypoints(feats, "scene0.png").shape != before.shape or not np.array_equal(
+        hloc_get_keypoints(feats, "scene0.png"), before)
+    # the old match file indexes the old keypoints: adding to it is refused, naming the
+    # pair left stale (the pair matched again would replace its own group)
+    assert main(["match", other, b, "--hloc", str(matches)]) == 1
+    error = capsys.readouterr().err
+    assert "scene0.png/scene2.png (scene0.png changed)" in error and "stale" in error
+    assert "scene0.png/scene1.png" not in error
+    assert main(["match", other, b, "--hloc", str(tmp_path / "matches-new.h5")]) == 0
+    pairs, _ = hloc_get_matches(tmp_path / "matches-new.h5", "scene0.png", "scene1.png")
+    assert pairs[:, 0].max() < len(hloc_get_keypoints(feats, "scene0.png"))
+
+
+def test_digests_tie_matches_to_the_features(tmp_path, two_views):
+    from liff.hloc import DIGEST_ATTR, features_digest
+
+    lf, (keypoints, descriptors) = two_views
+    feats, path = tmp_path / "f.h5", tmp_path / "m.h5"
+    d0 = write_features(feats, "a.png", keypoints, descriptors, (128, 96))
+    d1 = write_features(feats, "b.png", keypoints[:-1], descriptors[:-1], (128, 96))
+    assert d0 != d1 and features_digest(feats, "a.png") == d0
+    with h5py.File(feats, "r") as f:
+        assert f["a.png"].attrs[DIGEST_ATTR] == d0 and sorted(f["a.png"]) == [
+            "descriptors", "image_size", "keypoints", "oris", "scales", "scores", "slopes"]
+    write_matches(path, "a.png", "b.png", [cv2.DMatch(0, 1, 0.5)], len(keypoints), digests=(d0, d1))
+    write_matches(path, "a.png", "c.png", [cv2.DMatch(0, 1, 0.5)], len(keypoints), digests=(d0, "x"))
+    d0_new = write_features(feats, "a.png", keypoints[:-2], descriptors[:-2], (128, 96), overwrite=True)
+    with pytest.raises(ValueError, match=r"a\.png/b\.png \(a\.png changed\), a\.png/c\.png \(a\.png changed\)"):
+        write_matches(path, "a.png", "d.png", [], len(keypoints) - 2, digests=(d0_new, "y"))
+    # a pair of other images is no concern of theirs; a file without digests is not checked
+    write_matches(path, "b.png", "c.png", [], len(keypoints) - 1, digests=(d1, "x"))
+    write_matches(tmp_path / "m2.h5", "a.png", "b.png", [], len(keypoints) - 2)
+    with pytest.raises(ValueError, match="holds no features of 'z.png'"):
+        features_digest(feats, "z.png")

@@ -53,8 +53,10 @@ def add_parser(sub) -> None:
                         "...-2.csv when a run of the same second has taken it)")
     p.add_argument("--hloc", default=None, metavar="FEATS.h5",
                    help="also add every output's features to this hloc features file (a group "
-                        "per light field named OUTPUT-NAME.png; pip install 'liff[hdf5]'), for "
-                        "hloc's matchers, triangulation and reconstruction")
+                        "per light field named OUTPUT-NAME.png; pip install 'liff[hdf5]'; for "
+                        "hloc's matchers, triangulation and reconstruction; a group of other "
+                        "features than before is replaced only with --overwrite, since "
+                        "matches made from it are stale)")
     p.add_argument("--hloc-images", default=None, metavar="DIR",
                    help="with --hloc: write each centre view here under its group's name (the "
                         "image folder hloc is given)")
@@ -348,9 +350,13 @@ def run(args: argparse.Namespace) -> int:
         from ..hloc import add_feature_files
 
         written = [o.output for o in outcomes + kept if o.status != "failed"]
-        names = add_feature_files(args.hloc, written, args.hloc_images)
-        print(f"hloc: {len(names)} light field(s) -> {args.hloc}"
+        added = add_feature_files(args.hloc, written, args.hloc_images, args.overwrite)
+        print(f"hloc: {len(added.names)} light field(s) -> {args.hloc}"
               + (f", centre views -> {args.hloc_images}" if args.hloc_images else ""))
+        if added.replaced:
+            print(f"hloc: replaced the features of {', '.join(added.replaced)} with other ones: "
+                  "matches of them made before are stale (liff match --hloc refuses to add to "
+                  "those match files); match them again into a new file", file=sys.stderr)
     if failed:
         print(f"liff detect: {failed} of {len(tasks)} light field(s) failed", file=sys.stderr)
     return 1 if failed else 0

@@ -80,11 +80,13 @@ def run(args: argparse.Namespace) -> int:
               f"scene (expected at least {MIN_INLIERS}, and {CHANCE_FACTOR}x the {chance} that "
               "RANSAC keeps among randomly re-paired matches)", file=sys.stderr)
     if args.hloc:
-        from ..hloc import image_name, updated, write_matches
+        from ..feature_file import content_digest
+        from ..hloc import feature_file_group, image_name, updated, write_matches
 
+        digests = tuple(content_digest(feature_file_group(f)[0]) for f in (fa, fb))
         with updated(args.hloc) as partial:
             write_matches(partial, image_name(args.a), image_name(args.b), matches,
-                          len(fa.keypoints), overwrite=True)
+                          len(fa.keypoints), overwrite=True, digests=digests)
         print(f"hloc: {len(matches)} matches of {image_name(args.a)} and {image_name(args.b)} "
               f"-> {args.hloc}")
     if args.plot:

@@ -207,3 +207,64 @@ def test_digests_tie_matches_to_the_features(tmp_path, two_views):
     write_matches(tmp_path / "m2.h5", "a.png", "b.png", [], len(keypoints) - 2)
     with pytest.raises(ValueError, match="holds no features of 'z.png'"):
         features_digest(feats, "z.png")
+
+
+# --- even view counts: keypoints in the frame of the centre view written with them -------
+
+def four_blobs():
+    B = synthetic.Blob
+    return [B(30, 30, 4, -1.5, 0.4), B(90, 30, 4, 1.5, -0.4), B(30, 70, 4, 1.0, 0.4), B(90, 70, 4, -1.0, -0.4)]
+
+
+@pytest.mark.parametrize("views", [(4, 4), (4, 5), (5, 4)])
+def test_keypoints_in_centre_view_are_where_that_view_shows_them(views):
+    """LiFF's centre frame lies between views for an even count; the view (T//2, S//2)
+    that is written with the keypoints shows a blob of slope m m/2 px off per even axis."""
+    from liff.feature_file import centre_view, keypoints_in_centre_view
+
+    blobs = four_blobs()
+    lf = synthetic.render_disks(blobs, views + (100, 120))
+    keypoints, _ = liff.LiFF.create(firstSlope=-2, lastSlope=2).detectAndCompute(lf, None)
+    moved = keypoints_in_centre_view(keypoints, lf.shape)
+    view = centre_view(lf).astype(np.float64)
+    weight = np.abs(view - 0.5)
+    yy, xx = np.mgrid[:view.shape[0], :view.shape[1]]
+    for b in blobs:
+        i = int(np.argmin([np.hypot(k.pt[0] - b.x, k.pt[1] - b.y) for k in keypoints]))
+        window = (np.abs(xx - b.x) < 10) & (np.abs(yy - b.y) < 10)
+        seen = [(weight * window * c).sum() / (weight * window).sum() for c in (xx, yy)]
+        assert np.hypot(*np.subtract(moved[i].pt, seen)) < 0.05  # where the view shows it
+        assert np.hypot(*np.subtract(keypoints[i].pt, seen)) > 0.45  # not the centre frame
+        assert (moved[i].size, moved[i].angle, moved[i].class_id) == (
+            keypoints[i].size, keypoints[i].angle, keypoints[i].class_id)
+    assert keypoints_in_centre_view(keypoints, (5, 5, 100, 120)) == tuple(keypoints)  # odd: as given
+
+
+def test_even_view_counts_export_the_centre_views_frame(tmp_path, monkeypatch):
+    from liff.cli import detect as detect_cli, main
+    from liff.feature_file import keypoints_in_centre_view, load_features
+
+    drawn = []
+    original = detect_cli.draw_keypoints_by_slope
+    monkeypatch.setattr(detect_cli, "draw_keypoints_by_slope",
+                        lambda view, kps, *a, **k: drawn.append(kps) or original(view, kps, *a, **k))
+    for views in (4, 5):
+        lf = tmp_path / f"v{views}.npz"
+        assert main(["synth", "disks", "--out", str(lf), "--views", str(views), "--size", "96", "128",
+                     "--seed", "3"]) == 0
+        feats, out = tmp_path / f"feats{views}.h5", tmp_path / f"v{views}-feats.npz"
+        assert main(["detect", str(lf), "--out", str(out), "--plot", str(tmp_path / f"v{views}.png"),
+                     "--hloc", str(feats)]) == 0
+        features = load_features(out)
+        kp = hloc_get_keypoints(feats, f"v{views}-feats.png")
+        pts = np.array([k.pt for k in features.keypoints])
+        if views == 5:  # bit for bit as written from the keypoints as they are
+            write_features(tmp_path / "ref.h5", "ref.png", features.keypoints, features.descriptors, (128, 96))
+            np.testing.assert_array_equal(kp, hloc_get_keypoints(tmp_path / "ref.h5", "ref.png"))
+            assert [k.pt for k in drawn[-1]] == [k.pt for k in features.keypoints]
+        else:
+            shift = features.slopes[:, None] * 0.5
+            assert np.abs(features.slopes).max() > 0.2
+            np.testing.assert_allclose(kp, pts - shift, atol=1e-4)
+            expected = keypoints_in_centre_view(features.keypoints, (4, 4, 96, 128))
+            np.testing.assert_allclose([k.pt for k in drawn[-1]], [k.pt for k in expected], atol=1e-4)

@@ -26,7 +26,10 @@ and :func:`write_matches` refuses to add to a match file whose pairs of the same
 images were made against other features.
 
 A light field's features are its centre view's: write the centre view as the image hloc
-(and COLMAP) is given, under the same name.
+(and COLMAP) is given, under the same name. :func:`add_feature_files` gives the keypoints
+in that view's pixels (view (T // 2, S // 2); for even view counts LiFF's centre frame
+lies between views, :func:`liff.feature_file.keypoints_in_centre_view`); to
+:func:`write_features` give them so.
 """
 
 from __future__ import annotations
@@ -311,7 +314,9 @@ class Added(NamedTuple):
 
 def feature_file_group(features) -> Tuple[dict, np.ndarray]:
     """The hloc datasets of a liff feature file's light field (:func:`feature_datasets`)
-    and its centre view, the image they go with.
+    and its centre view, the image they go with: the keypoints in that view's pixels
+    (:meth:`~liff.feature_file.Features.centre_view_keypoints`; for even view counts
+    the centre frame lies between views).
 
     Parameters
     ----------
@@ -332,7 +337,7 @@ def feature_file_group(features) -> Tuple[dict, np.ndarray]:
     view = features.centre_view
     if view is None:  # (its size is the image_size hloc needs)
         raise ValueError("holds no centre view; expected a feature file from liff detect")
-    return feature_datasets(features.keypoints, features.descriptors,
+    return feature_datasets(features.centre_view_keypoints(), features.descriptors,
                             (view.shape[1], view.shape[0])), view
 
 

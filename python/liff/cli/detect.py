@@ -14,7 +14,8 @@ import cv2
 from .. import __version__, batch
 from .._detector import as_read_in_place
 from .._warnings import LiffWarning
-from ..feature_file import Features, centre_view, content_problem, read_meta, save_features
+from ..feature_file import (Features, centre_view, content_problem, keypoints_in_centre_view,
+                            read_meta, save_features)
 from ..io.images import write_image
 from ..outputs import atomic_output, refuse_inputs
 from ..plot import draw_keypoints_by_slope
@@ -130,7 +131,8 @@ def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
         save_features(partial, Features(tuple(keypoints), descriptors, view, meta))
     if plot:
         with atomic_output(plot) as partial:
-            picture = draw_keypoints_by_slope(view, keypoints, (built[0], built[-1]))
+            picture = draw_keypoints_by_slope(view, keypoints_in_centre_view(
+                keypoints, light_field.shape), (built[0], built[-1]))
             write_image(partial, picture)
     return Detected(len(keypoints), slope_range, len(searched), len(built), slopes_from, notes)
 

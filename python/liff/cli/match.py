@@ -92,8 +92,8 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         if fa.centre_view is None or fb.centre_view is None:
             raise ValueError("--plot needs the centre views; the feature files hold none")
-        picture = draw_inliers(to_display(fa.centre_view), fa.keypoints,
-                               to_display(fb.centre_view), fb.keypoints, result)
+        picture = draw_inliers(to_display(fa.centre_view), fa.centre_view_keypoints(),
+                               to_display(fb.centre_view), fb.centre_view_keypoints(), result)
         with atomic_output(args.plot) as partial:
             write_image(partial, picture)
     return 0

@@ -13,7 +13,9 @@ hloc's ``extract_features`` writes and ``utils/io.py`` reads them:
   per view step, which hloc ignores.
 * matches: the group ``names_to_pair(name0, name1)`` = ``name0/name1`` with each name's
   ``/`` replaced by ``-``, holding ``matches0`` (N0,) int32, the index in image 1 of
-  each keypoint of image 0 or -1, and ``matching_scores0`` (N0,) float32.
+  each keypoint of image 0 or -1, and ``matching_scores0`` (N0,) float32 in [0, 1]
+  (:func:`match_scores`). hloc finds a pair in either order; so does
+  :func:`write_matches`.
 
 Match files index keypoints, so they hold only as long as the features they were made
 from. liff marks both (HDF5 attributes, which hloc's readers do not look at): a
@@ -62,18 +64,21 @@ PAIR_DIGEST_ATTRS = ("liff_features0", "liff_features1")
 
 
 def _write_group(path, key: str, what: str, datasets: dict, overwrite: bool,
-                 attrs: Optional[dict] = None) -> None:
+                 attrs: Optional[dict] = None, aliases: Sequence[str] = ()) -> None:
     """Writes ``datasets`` (and the HDF5 attributes ``attrs``) as the group ``key`` of
-    the HDF5 file ``path`` (made if missing); an existing group is replaced with
-    ``overwrite``, else a ValueError."""
+    the HDF5 file ``path`` (made if missing); an existing group, under ``key`` or one of
+    ``aliases`` (other keys of the same thing), is replaced with ``overwrite``, else a
+    ValueError."""
     import h5py  # optional dependency (pip install "liff[hdf5]")
 
     with h5py.File(path, "a") as f:
-        if key in f:
+        for existing in dict.fromkeys((key,) + tuple(aliases)):
+            if existing not in f:
+                continue
             if not overwrite:
-                raise ValueError(f"{os.fspath(path)} already holds {what} {key!r}; expected a "
-                                 "new one, or overwrite=True")
-            del f[key]
+                raise ValueError(f"{os.fspath(path)} already holds {what} {existing!r}; "
+                                 "expected a new one, or overwrite=True")
+            del f[existing]
         group = f.create_group(key)
         for name, data in datasets.items():
             group.create_dataset(name, data=data)
@@ -81,8 +86,16 @@ def _write_group(path, key: str, what: str, datasets: dict, overwrite: bool,
 
 
 def _check_name(name: str) -> str:
+    """Raises ValueError unless ``name`` is a relative image path that hloc's files and
+    its pairs.txt (read with ``str.split()``) hold as it is."""
     if not isinstance(name, str) or not name or name.startswith("/") or "//" in name:
         raise ValueError(f"image name {name!r}; expected a relative path such as 'scene/0001.png'")
+    if any(c.isspace() for c in name):
+        raise ValueError(f"image name {name!r} holds whitespace; expected a name without spaces, "
+                         "tabs or newlines (hloc reads pairs.txt split at whitespace)")
+    if any(part in (".", "..") for part in name.split("/")):
+        raise ValueError(f"image name {name!r} holds a '.' or '..' part; expected a path inside "
+                         "the image folder such as 'scene/0001.png'")
     return name
 
 
@@ -164,10 +177,37 @@ def write_features(path: "os.PathLike", name: str, keypoints: Sequence[cv2.KeyPo
 
 
 def _write_features_group(path, name: str, datasets: dict, overwrite: bool) -> str:
-    """Writes a features group with its digest attribute; returns the digest."""
+    """Writes a features group with its digest attribute; returns the digest. A name
+    that is a folder of other images' names, or lies under another image's name, is a
+    ValueError (even with ``overwrite``: it would replace or nest in other images)."""
+    _refuse_nesting(path, name)
     digest = content_digest(datasets)
     _write_group(path, name, "features of", datasets, overwrite, {DIGEST_ATTR: digest})
     return digest
+
+
+def _refuse_nesting(path, name: str) -> None:
+    """Raises ValueError if the features file ``path`` has ``name`` as a folder of other
+    images' groups, or an image's group at a folder of ``name``."""
+    if not os.path.exists(path):
+        return
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        group = f.get(name)
+        if isinstance(group, h5py.Group) and "keypoints" not in group:
+            inside = []
+            group.visititems(lambda key, item: inside.append(f"{name}/{key}")
+                             if isinstance(item, h5py.Group) and "keypoints" in item else None)
+            raise ValueError(f"{os.fspath(path)}: {name!r} is a folder of other images' names "
+                             f"there ({', '.join(inside[:3]) or 'no features'}); expected an "
+                             "image name that is not the folder of others")
+        parts = name.split("/")
+        for end in range(1, len(parts)):
+            folder = "/".join(parts[:end])
+            if isinstance(f.get(folder), h5py.Group) and "keypoints" in f[folder]:
+                raise ValueError(f"{os.fspath(path)}: {folder!r} holds an image's features; "
+                                 f"expected {name!r} not under another image's name")
 
 
 def features_digest(path: "os.PathLike", name: str) -> str:
@@ -197,8 +237,31 @@ def _group_digest(group) -> str:
     return content_digest({key: group[key][()] for key in group if key != DIGEST_ATTR})
 
 
+#: the norm of SIFT's descriptors (cv2.SIFT's and liff's, float or uint8): 512
+DESCRIPTOR_NORM = 512.0
+
+
+def match_scores(distances) -> np.ndarray:
+    """hloc's ``matching_scores0`` for L2 descriptor distances: the cosine similarity of
+    two descriptors of SIFT's norm 512, ``1 - d^2 / (2 * 512^2)``, clipped to [0, 1]; what
+    hloc's nearest-neighbour matcher scores normalised descriptors with (their dot
+    product), so that hloc's ``min_match_score`` thresholds mean the same.
+
+    Parameters
+    ----------
+    distances : array-like of float
+        L2 distances (``cv2.DMatch.distance``), finite and at least 0.
+
+    Returns
+    -------
+    scores : ndarray of float32
+    """
+    d = np.asarray(distances, np.float64) / DESCRIPTOR_NORM
+    return np.clip(1.0 - d * d / 2.0, 0.0, 1.0).astype(np.float32)
+
+
 def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence[cv2.DMatch],
-                  num_keypoints0: int, overwrite: bool = False,
+                  num_keypoints0: int, num_keypoints1: int, overwrite: bool = False,
                   digests: Optional[Tuple[str, str]] = None) -> None:
     """Adds the matches of one pair to the hloc matches file ``path`` (made if missing).
 
@@ -210,11 +273,13 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
         The two images' names, as in the features file.
     matches : sequence of cv2.DMatch
         ``queryIdx`` in image 0, ``trainIdx`` in image 1 (as from ``BFMatcher.match``
-        or liff.matching); each query keypoint at most once.
-    num_keypoints0 : int
-        Keypoints of image 0 (the length of ``matches0``).
+        or liff.matching), ``distance`` the descriptors' L2 distance; each query
+        keypoint at most once.
+    num_keypoints0, num_keypoints1 : int
+        Keypoints of image 0 (the length of ``matches0``) and of image 1.
     overwrite : bool
-        Replace the pair's group; otherwise an existing pair is a ValueError.
+        Replace the pair's group, in either order (hloc's ``find_pair`` finds
+        ``name1/name0`` too); otherwise an existing pair is a ValueError.
     digests : (str, str), optional
         The digests of the two images' features (:func:`write_features` returns them,
         :func:`features_digest` reads them back), recorded with the pair; the file's
@@ -223,34 +288,48 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
     Raises
     ------
     ValueError
-        For a bad name or match, an existing pair (without ``overwrite``), or pairs of
-        ``name0`` or ``name1`` in the file that were made against other features (their
-        indices would not be those of the features now).
+        For a bad name, a match whose indices are outside the keypoints or whose
+        distance is negative or not finite, an existing pair (without ``overwrite``),
+        or pairs of ``name0`` or ``name1`` in the file that were made against other
+        features (their indices would not be those of the features now).
 
     Notes
     -----
-    ``matching_scores0`` is 1 / (1 + distance) for a match (higher is better, as hloc's
-    scores are), 0 elsewhere.
+    ``matching_scores0`` is :func:`match_scores` of the distance for a match (the
+    descriptors' cosine similarity, in [0, 1]), 0 elsewhere.
     """
     _check_name(name0)
     _check_name(name1)
-    matches0 = np.full(int(num_keypoints0), -1, np.int32)
-    scores0 = np.zeros(int(num_keypoints0), np.float32)
+    counts = []
+    for what, count in (("num_keypoints0", num_keypoints0), ("num_keypoints1", num_keypoints1)):
+        if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
+            raise ValueError(f"{what} {count!r}; expected a keypoint count, an int >= 0")
+        counts.append(int(count))
+    matches0 = np.full(counts[0], -1, np.int32)
+    distances = np.zeros(counts[0], np.float64)
     for m in matches:
-        if not 0 <= m.queryIdx < num_keypoints0:
-            raise ValueError(f"match queryIdx {m.queryIdx}; expected in [0, {num_keypoints0})")
+        if not 0 <= m.queryIdx < counts[0]:
+            raise ValueError(f"match queryIdx {m.queryIdx}; expected in [0, {counts[0]}), a "
+                             f"keypoint of {name0!r}")
+        if not 0 <= m.trainIdx < counts[1]:
+            raise ValueError(f"match trainIdx {m.trainIdx}; expected in [0, {counts[1]}), a "
+                             f"keypoint of {name1!r}")
+        if not (np.isfinite(m.distance) and m.distance >= 0):
+            raise ValueError(f"match distance {m.distance}; expected a descriptor distance, "
+                             "finite and >= 0")
         if matches0[m.queryIdx] != -1:
             raise ValueError(f"keypoint {m.queryIdx} of {name0!r} matched twice; expected "
                              "each at most once")
         matches0[m.queryIdx] = m.trainIdx
-        scores0[m.queryIdx] = 1.0 / (1.0 + m.distance)
-    key = names_to_pair(name0, name1)
+        distances[m.queryIdx] = m.distance
+    scores0 = np.where(matches0 != -1, match_scores(distances), 0).astype(np.float32)
+    key, reverse = names_to_pair(name0, name1), names_to_pair(name1, name0)
     attrs = {}
     if digests is not None:
         attrs = dict(zip(PAIR_NAME_ATTRS + PAIR_DIGEST_ATTRS, (name0, name1) + tuple(digests)))
-        _refuse_stale_pairs(path, {name0: digests[0], name1: digests[1]}, key)
+        _refuse_stale_pairs(path, {name0: digests[0], name1: digests[1]}, {key, reverse})
     _write_group(path, key, "the pair", {"matches0": matches0, "matching_scores0": scores0},
-                 overwrite, attrs)
+                 overwrite, attrs, aliases=(reverse,))
 
 
 def _pair_groups(f) -> Iterator:
@@ -261,9 +340,9 @@ def _pair_groups(f) -> Iterator:
                 yield group
 
 
-def _refuse_stale_pairs(path, digests: dict, replaced: str) -> None:
+def _refuse_stale_pairs(path, digests: dict, replaced: set) -> None:
     """Raises ValueError if the matches file ``path`` holds a pair (other than the
-    group ``replaced``) of an image of ``digests`` made against other features."""
+    groups ``replaced``) of an image of ``digests`` made against other features."""
     if not os.path.exists(path):
         return
     import h5py
@@ -271,7 +350,7 @@ def _refuse_stale_pairs(path, digests: dict, replaced: str) -> None:
     stale = []
     with h5py.File(path, "r") as f:
         for group in _pair_groups(f):
-            if group.name.lstrip("/") == replaced:
+            if group.name.lstrip("/") in replaced:
                 continue
             for name_attr, digest_attr in zip(PAIR_NAME_ATTRS, PAIR_DIGEST_ATTRS):
                 name = group.attrs.get(name_attr)

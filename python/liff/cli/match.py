@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
         digests = tuple(content_digest(feature_file_group(f)[0]) for f in (fa, fb))
         with updated(args.hloc) as partial:
             write_matches(partial, image_name(args.a), image_name(args.b), matches,
-                          len(fa.keypoints), overwrite=True, digests=digests)
+                          len(fa.keypoints), len(fb.keypoints), overwrite=True, digests=digests)
         print(f"hloc: {len(matches)} matches of {image_name(args.a)} and {image_name(args.b)} "
               f"-> {args.hloc}")
     if args.plot:

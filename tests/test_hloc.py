@@ -46,7 +46,7 @@ def test_matches_read_as_hloc_reads_them(tmp_path, two_views):
     _, (keypoints, descriptors) = two_views
     matches = cv2.BFMatcher(cv2.NORM_L2, crossCheck=True).match(descriptors, descriptors)
     path = tmp_path / "matches.h5"
-    write_matches(path, "a/0.png", "a/1.png", matches, len(keypoints))
+    write_matches(path, "a/0.png", "a/1.png", matches, len(keypoints), len(keypoints))
     with h5py.File(path, "r") as f:
         pair = names_to_pair("a/0.png", "a/1.png")
         assert pair == "a-0.png/a-1.png" and pair in f  # hloc's find_pair
@@ -73,9 +73,9 @@ def test_clear_errors(tmp_path, two_views):
         write_features(path, "y.png", keypoints, descriptors[:-1], (128, 96))
     twice = [cv2.DMatch(0, 1, 0.5), cv2.DMatch(0, 2, 0.7)]
     with pytest.raises(ValueError, match="matched twice"):
-        write_matches(tmp_path / "m.h5", "a.png", "b.png", twice, 3)
+        write_matches(tmp_path / "m.h5", "a.png", "b.png", twice, 3, 3)
     with pytest.raises(ValueError, match="queryIdx 5"):
-        write_matches(tmp_path / "m.h5", "a.png", "b.png", [cv2.DMatch(5, 0, 0.1)], 3)
+        write_matches(tmp_path / "m.h5", "a.png", "b.png", [cv2.DMatch(5, 0, 0.1)], 3, 3)
 
 
 # --- the command line: liff detect --hloc, liff match --hloc -----------------------------
@@ -144,3 +144,208 @@ def test_the_command_line_refuses_a_foreign_hloc_file(tmp_path, capsys):
     assert "--hloc" in capsys.readouterr().err
     assert main(["detect", str(lf), "--out", str(tmp_path / "f.npz"), "--hloc-images", str(tmp_path)]) == 1
     assert "--hloc-images without --hloc" in capsys.readouterr().err
+
+
+def test_other_features_of_a_name_are_replaced_only_with_overwrite(tmp_path, capsys):
+    """Matches index keypoints: replacing an image's features silently would leave the
+    match files made from them stale (issue 29)."""
+    from liff.cli import main
+
+    for folder, seed in (("lf", 0), ("lf", 1), ("lf", 2), ("other", 7)):  # other/scene0: another capture
+        name = f"scene{seed}" if folder == "lf" else "scene0"
+        assert main(["synth", "disks", "--out", str(tmp_path / folder / f"{name}.npz"), "--views", "5",
+                     "--size", "96", "128", "--seed", str(seed)]) == 0
+    feats, matches = tmp_path / "feats-liff.h5", tmp_path / "matches-liff.h5"
+    assert main(["detect", str(tmp_path / "lf"), "--out", str(tmp_path / "feats"), "--hloc", str(feats)]) == 0
+    a, b, c = (str(tmp_path / "feats" / f"scene{i}.npz") for i in range(3))
+    assert main(["match", a, b, "--hloc", str(matches)]) == 0
+    assert main(["match", a, c, "--hloc", str(matches)]) == 0
+    before = hloc_get_keypoints(feats, "scene0.png")
+    capsys.readouterr()
+    other = str(tmp_path / "other-feats" / "scene0.npz")
+    assert main(["detect", str(tmp_path / "other" / "scene0.npz"), "--out", other, "--hloc", str(feats)]) == 1
+    error = capsys.readouterr().err
+    assert "other features of scene0.png" in error and "--overwrite" in error
+    np.testing.assert_array_equal(hloc_get_keypoints(feats, "scene0.png"), before)  # untouched
+    # the same features again are no change
+    assert main(["detect", str(tmp_path / "lf" / "scene0.npz"), "--out", a, "--hloc", str(feats)]) == 0
+    assert "replaced" not in capsys.readouterr().err
+    assert main(["detect", str(tmp_path / "other" / "scene0.npz"), "--out", other, "--hloc", str(feats),
+                 "--overwrite"]) == 0
+    assert "replaced the features of scene0.png" in capsys.readouterr().err
+    assert hloc_get_keypoints(feats, "scene0.png").shape != before.shape or not np.array_equal(
+        hloc_get_keypoints(feats, "scene0.png"), before)
+    # the old match file indexes the old keypoints: adding to it is refused, naming the
+    # pair left stale (the pair matched again would replace its own group)
+    assert main(["match", other, b, "--hloc", str(matches)]) == 1
+    error = capsys.readouterr().err
+    assert "scene0.png/scene2.png (scene0.png changed)" in error and "stale" in error
+    assert "scene0.png/scene1.png" not in error
+    assert main(["match", other, b, "--hloc", str(tmp_path / "matches-new.h5")]) == 0
+    pairs, _ = hloc_get_matches(tmp_path / "matches-new.h5", "scene0.png", "scene1.png")
+    assert pairs[:, 0].max() < len(hloc_get_keypoints(feats, "scene0.png"))
+
+
+def test_digests_tie_matches_to_the_features(tmp_path, two_views):
+    from liff.hloc import DIGEST_ATTR, features_digest
+
+    lf, (keypoints, descriptors) = two_views
+    feats, path = tmp_path / "f.h5", tmp_path / "m.h5"
+    d0 = write_features(feats, "a.png", keypoints, descriptors, (128, 96))
+    d1 = write_features(feats, "b.png", keypoints[:-1], descriptors[:-1], (128, 96))
+    assert d0 != d1 and features_digest(feats, "a.png") == d0
+    with h5py.File(feats, "r") as f:
+        assert f["a.png"].attrs[DIGEST_ATTR] == d0 and sorted(f["a.png"]) == [
+            "descriptors", "image_size", "keypoints", "oris", "scales", "scores", "slopes"]
+    write_matches(path, "a.png", "b.png", [cv2.DMatch(0, 1, 0.5)], len(keypoints), len(keypoints) - 1,
+                  digests=(d0, d1))
+    write_matches(path, "a.png", "c.png", [cv2.DMatch(0, 1, 0.5)], len(keypoints), 2, digests=(d0, "x"))
+    d0_new = write_features(feats, "a.png", keypoints[:-2], descriptors[:-2], (128, 96), overwrite=True)
+    with pytest.raises(ValueError, match=r"a\.png/b\.png \(a\.png changed\), a\.png/c\.png \(a\.png changed\)"):
+        write_matches(path, "a.png", "d.png", [], len(keypoints) - 2, 0, digests=(d0_new, "y"))
+    # a pair of other images is no concern of theirs; a file without digests is not checked
+    write_matches(path, "b.png", "c.png", [], len(keypoints) - 1, 2, digests=(d1, "x"))
+    write_matches(tmp_path / "m2.h5", "a.png", "b.png", [], len(keypoints) - 2, len(keypoints) - 1)
+    with pytest.raises(ValueError, match="holds no features of 'z.png'"):
+        features_digest(feats, "z.png")
+
+
+# --- even view counts: keypoints in the frame of the centre view written with them -------
+
+def four_blobs():
+    B = synthetic.Blob
+    return [B(30, 30, 4, -1.5, 0.4), B(90, 30, 4, 1.5, -0.4), B(30, 70, 4, 1.0, 0.4), B(90, 70, 4, -1.0, -0.4)]
+
+
+@pytest.mark.parametrize("views", [(4, 4), (4, 5), (5, 4)])
+def test_keypoints_in_centre_view_are_where_that_view_shows_them(views):
+    """LiFF's centre frame lies between views for an even count; the view (T//2, S//2)
+    that is written with the keypoints shows a blob of slope m m/2 px off per even axis."""
+    from liff.feature_file import centre_view, keypoints_in_centre_view
+
+    blobs = four_blobs()
+    lf = synthetic.render_disks(blobs, views + (100, 120))
+    keypoints, _ = liff.LiFF.create(firstSlope=-2, lastSlope=2).detectAndCompute(lf, None)
+    moved = keypoints_in_centre_view(keypoints, lf.shape)
+    view = centre_view(lf).astype(np.float64)
+    weight = np.abs(view - 0.5)
+    yy, xx = np.mgrid[:view.shape[0], :view.shape[1]]
+    for b in blobs:
+        i = int(np.argmin([np.hypot(k.pt[0] - b.x, k.pt[1] - b.y) for k in keypoints]))
+        window = (np.abs(xx - b.x) < 10) & (np.abs(yy - b.y) < 10)
+        seen = [(weight * window * c).sum() / (weight * window).sum() for c in (xx, yy)]
+        assert np.hypot(*np.subtract(moved[i].pt, seen)) < 0.05  # where the view shows it
+        assert np.hypot(*np.subtract(keypoints[i].pt, seen)) > 0.45  # not the centre frame
+        assert (moved[i].size, moved[i].angle, moved[i].class_id) == (
+            keypoints[i].size, keypoints[i].angle, keypoints[i].class_id)
+    assert keypoints_in_centre_view(keypoints, (5, 5, 100, 120)) == tuple(keypoints)  # odd: as given
+
+
+def test_even_view_counts_export_the_centre_views_frame(tmp_path, monkeypatch):
+    from liff.cli import detect as detect_cli, main
+    from liff.feature_file import keypoints_in_centre_view, load_features
+
+    drawn = []
+    original = detect_cli.draw_keypoints_by_slope
+    monkeypatch.setattr(detect_cli, "draw_keypoints_by_slope",
+                        lambda view, kps, *a, **k: drawn.append(kps) or original(view, kps, *a, **k))
+    for views in (4, 5):
+        lf = tmp_path / f"v{views}.npz"
+        assert main(["synth", "disks", "--out", str(lf), "--views", str(views), "--size", "96", "128",
+                     "--seed", "3"]) == 0
+        feats, out = tmp_path / f"feats{views}.h5", tmp_path / f"v{views}-feats.npz"
+        assert main(["detect", str(lf), "--out", str(out), "--plot", str(tmp_path / f"v{views}.png"),
+                     "--hloc", str(feats)]) == 0
+        features = load_features(out)
+        kp = hloc_get_keypoints(feats, f"v{views}-feats.png")
+        pts = np.array([k.pt for k in features.keypoints])
+        if views == 5:  # bit for bit as written from the keypoints as they are
+            write_features(tmp_path / "ref.h5", "ref.png", features.keypoints, features.descriptors, (128, 96))
+            np.testing.assert_array_equal(kp, hloc_get_keypoints(tmp_path / "ref.h5", "ref.png"))
+            assert [k.pt for k in drawn[-1]] == [k.pt for k in features.keypoints]
+        else:
+            shift = features.slopes[:, None] * 0.5
+            assert np.abs(features.slopes).max() > 0.2
+            np.testing.assert_allclose(kp, pts - shift, atol=1e-4)
+            expected = keypoints_in_centre_view(features.keypoints, (4, 4, 96, 128))
+            np.testing.assert_allclose([k.pt for k in drawn[-1]], [k.pt for k in expected], atol=1e-4)
+
+
+# --- write_matches: indices, distances, scores, pairs in either order; names -------------
+
+@pytest.mark.parametrize("match, message", [
+    (cv2.DMatch(0, 1_000_000, 0.1), r"trainIdx 1000000; expected in \[0, 4\), a keypoint of 'b.png'"),
+    (cv2.DMatch(0, -7, 0.1), r"trainIdx -7; expected in \[0, 4\)"),
+    (cv2.DMatch(0, -1, 0.1), r"trainIdx -1; expected in \[0, 4\)"),
+    (cv2.DMatch(0, 4, 0.1), r"trainIdx 4; expected in \[0, 4\)"),
+    (cv2.DMatch(3, 0, 0.1), r"queryIdx 3; expected in \[0, 3\), a keypoint of 'a.png'"),
+    (cv2.DMatch(0, 1, -0.5), r"distance -0.5; expected a descriptor distance, finite and >= 0"),
+    (cv2.DMatch(0, 1, float("nan")), r"distance nan; expected"),
+    (cv2.DMatch(0, 1, float("inf")), r"distance inf; expected"),
+])
+def test_write_matches_checks_both_images_keypoints_and_the_distance(tmp_path, match, message):
+    with pytest.raises(ValueError, match=message):
+        write_matches(tmp_path / "m.h5", "a.png", "b.png", [match], 3, 4)
+    assert not (tmp_path / "m.h5").exists() or "a.png" not in h5py.File(tmp_path / "m.h5", "r")
+
+
+def test_write_matches_checks_the_counts(tmp_path):
+    for bad in (-1, 2.5, "3", True):
+        with pytest.raises(ValueError, match=r"num_keypoints1 .*; expected a keypoint count"):
+            write_matches(tmp_path / "m.h5", "a.png", "b.png", [], 3, bad)
+
+
+def test_scores_are_the_descriptors_cosine_similarity(tmp_path, two_views):
+    """hloc's nearest-neighbour matcher scores normalised descriptors by their dot
+    product; its min_match_score thresholds must mean the same for liff's files."""
+    from liff.hloc import match_scores
+
+    _, (keypoints, descriptors) = two_views
+    other = np.roll(descriptors, 1, axis=0)  # every descriptor against its neighbour's
+    matches = [cv2.DMatch(i, i, float(np.linalg.norm(descriptors[i] - other[i])))
+               for i in range(len(keypoints))]
+    path = tmp_path / "m.h5"
+    write_matches(path, "a.png", "b.png", matches, len(keypoints), len(keypoints))
+    _, scores = hloc_get_matches(path, "a.png", "b.png")
+    cosine = np.sum(descriptors * other, 1) / np.linalg.norm(descriptors, axis=1) / np.linalg.norm(other, axis=1)
+    np.testing.assert_allclose(scores, np.clip(cosine, 0, 1), atol=0.01)
+    assert scores.min() >= 0 and scores.max() <= 1 and np.median(scores) > 0.2
+    assert match_scores([0.0])[0] == 1 and match_scores([2 * 512.0])[0] == 0  # same, opposite
+
+
+def test_a_pair_is_found_in_either_order(tmp_path):
+    path = tmp_path / "m.h5"
+    write_matches(path, "a.png", "b.png", [cv2.DMatch(0, 1, 10.0)], 2, 3)
+    with pytest.raises(ValueError, match=r"already holds the pair 'a.png/b.png'"):
+        write_matches(path, "b.png", "a.png", [cv2.DMatch(1, 0, 10.0)], 3, 2)
+    write_matches(path, "b.png", "a.png", [cv2.DMatch(1, 0, 10.0)], 3, 2, overwrite=True)
+    with h5py.File(path, "r") as f:
+        assert "a.png/b.png" not in f and "b.png/a.png" in f  # one group, as find_pair reads it
+        assert list(f["b.png/a.png"]["matches0"][()]) == [-1, 0, -1]
+
+
+@pytest.mark.parametrize("name, message", [
+    ("my scene.png", "holds whitespace"), ("a\nb.png", "holds whitespace"), ("a\tb.png", "holds whitespace"),
+    ("../x.png", r"holds a '\.' or '\.\.' part"), ("a/../b.png", r"'\.\.' part"), ("./a.png", r"'\.' or"),
+])
+def test_names_hloc_cannot_hold_are_refused(tmp_path, two_views, name, message):
+    _, (keypoints, descriptors) = two_views
+    with pytest.raises(ValueError, match=message):
+        write_features(tmp_path / "f.h5", name, keypoints, descriptors, (128, 96))
+    with pytest.raises(ValueError, match=message):
+        write_matches(tmp_path / "m.h5", "ok.png", name, [], 0, 0)
+
+
+def test_an_image_name_is_not_the_folder_of_others(tmp_path, two_views):
+    _, (keypoints, descriptors) = two_views
+    path = tmp_path / "f.h5"
+    write_features(path, "lf0/centre.png", keypoints, descriptors, (128, 96))
+    for overwrite in (False, True):
+        with pytest.raises(ValueError, match=r"'lf0' is a folder of other images' names there "
+                                             r"\(lf0/centre.png\)"):
+            write_features(path, "lf0", keypoints, descriptors, (128, 96), overwrite=overwrite)
+    write_features(path, "lf1", keypoints, descriptors, (128, 96))
+    with pytest.raises(ValueError, match=r"'lf1' holds an image's features; expected 'lf1/c.png' not"):
+        write_features(path, "lf1/c.png", keypoints, descriptors, (128, 96))
+    with h5py.File(path, "r") as f:
+        assert sorted(f) == ["lf0", "lf1"] and sorted(f["lf0"]) == ["centre.png"]

@@ -427,6 +427,25 @@ def test_cli_pose_prints_and_writes_the_metric_pose(pose_files, tmp_path, capsys
     assert np.linalg.norm(np.array(result["t"]) - t_true) <= 0.02 * np.linalg.norm(t_true)
 
 
+def test_cli_pose_keeps_an_existing_out_file(pose_files, tmp_path, capsys, monkeypatch):
+    capture, paths = pose_files
+    keep = tmp_path / "keep.json"
+    keep.write_text("not ours")
+    detected = []
+    real = liff.cli.pose.features_from_light_field
+    monkeypatch.setattr(liff.cli.pose, "features_from_light_field",
+                        lambda *args: detected.append(args) or real(*args))
+    options = [*camera_options(camera_of(capture)), *detector_options()]
+    assert main(["pose", paths[0], paths[1], *options, "--out", str(keep)]) == 1
+    err = capsys.readouterr().err
+    assert f"{keep}: exists; expected a new --out path (or --overwrite to replace it)" in err
+    assert keep.read_text() == "not ours" and detected == []  # said before detecting
+    assert main(["pose", paths[0], paths[1], *options, "--out", paths[0]]) == 1
+    assert "--out" in capsys.readouterr().err and np.load(paths[0]).ndim >= 4
+    assert main(["pose", paths[0], paths[1], *options, "--out", str(keep), "--overwrite"]) == 0
+    assert "R" in json.loads(keep.read_text())
+
+
 def test_cli_pose_needs_a_camera(pose_files, capsys, monkeypatch):
     _, paths = pose_files
     detected = []

@@ -4,7 +4,9 @@ Arrays in the file:
 
 ============== ============== ==================================================
 ``keypoints``  (N, 6) float64 x, y, size, angle, response, octave (cv2.KeyPoint
-                              fields; x, y in centre-view pixels, OpenCV centres)
+                              fields; x, y in the centre frame's pixels, OpenCV
+                              centres: for even view counts ``centre_view``'s
+                              frame differs, :func:`keypoints_in_centre_view`)
 ``slopes``     (N,) float64   slope of each feature, pixels per view step
 ``descriptors`` (N, 128)      float32 or uint8 (SIFT integers in [0, 255])
 ``centre_view`` (V, U[, 3])   uint8, the picture the features are drawn on
@@ -60,6 +62,13 @@ class Features:
     def slopes(self) -> np.ndarray:
         return keypoint_slopes(self.keypoints)
 
+    def centre_view_keypoints(self) -> Tuple[cv2.KeyPoint, ...]:
+        """The keypoints in the pixels of :attr:`centre_view` (see
+        :func:`keypoints_in_centre_view`), for the light field shape in ``meta``; as
+        they are when ``meta`` holds no shape (files written before liff recorded it)."""
+        shape = self.meta.get("shape")
+        return tuple(self.keypoints) if shape is None else keypoints_in_centre_view(self.keypoints, shape)
+
 
 def centre_view(light_field: np.ndarray) -> np.ndarray:
     """The view (T // 2, S // 2) of a (T, S, V, U[, C]) light field without its alpha
@@ -72,6 +81,41 @@ def centre_view(light_field: np.ndarray) -> np.ndarray:
     if view.ndim == 3 and view.shape[-1] == 1:
         view = view[..., 0]
     return view
+
+
+def keypoints_in_centre_view(keypoints, shape) -> Tuple[cv2.KeyPoint, ...]:
+    """LiFF keypoints moved into the frame of the view :func:`centre_view` returns.
+
+    LiFF gives positions in the centre frame ``(s_c, t_c) = ((S - 1) / 2, (T - 1) / 2)``
+    (docs/CONVENTIONS.md), which for an even view count lies between views; a keypoint
+    at ``(x, y)`` with slope ``m`` is seen in view ``(T // 2, S // 2)`` at
+    ``(x - m (S // 2 - s_c), y - m (T // 2 - t_c))``, that is ``m / 2`` pixels off along
+    each even axis. Exports and pictures that pair keypoints with that view's image use
+    this.
+
+    Parameters
+    ----------
+    keypoints : sequence of cv2.KeyPoint
+        LiFF keypoints (slope in class_id).
+    shape : sequence of int
+        The light field's shape, (T, S, V, U[, C]); a 2-D or 3-D shape is one view.
+
+    Returns
+    -------
+    keypoints : tuple of cv2.KeyPoint
+        New keypoints, other fields unchanged; for odd view counts the keypoints given,
+        untouched.
+    """
+    shape = tuple(int(v) for v in shape)
+    rows_of_views, views = shape[:2] if len(shape) >= 4 else (1, 1)
+    dt, ds = rows_of_views // 2 - (rows_of_views - 1) / 2, views // 2 - (views - 1) / 2
+    if dt == 0 and ds == 0:
+        return tuple(keypoints)
+    rows = keypoints_to_rows(keypoints)
+    slopes = keypoint_slopes(keypoints)
+    rows[:, 0] -= slopes * ds
+    rows[:, 1] -= slopes * dt
+    return rows_to_keypoints(rows)
 
 
 def save_features(path: PathLike, features: Features) -> None:
@@ -256,4 +300,6 @@ def features_from_light_field(detector, light_field: np.ndarray, mask=None,
                               meta: Optional[dict] = None) -> Features:
     """Runs ``detector.detectAndCompute`` and packs the result with the centre view."""
     keypoints, descriptors = detector.detectAndCompute(light_field, mask)
-    return Features(tuple(keypoints), descriptors, centre_view(light_field), dict(meta or {}))
+    meta = dict(meta or {})
+    meta.setdefault("shape", list(np.shape(light_field)))  # (Features.centre_view_keypoints)
+    return Features(tuple(keypoints), descriptors, centre_view(light_field), meta)

@@ -13,10 +13,25 @@ hloc's ``extract_features`` writes and ``utils/io.py`` reads them:
   per view step, which hloc ignores.
 * matches: the group ``names_to_pair(name0, name1)`` = ``name0/name1`` with each name's
   ``/`` replaced by ``-``, holding ``matches0`` (N0,) int32, the index in image 1 of
-  each keypoint of image 0 or -1, and ``matching_scores0`` (N0,) float32.
+  each keypoint of image 0 or -1, and ``matching_scores0`` (N0,) float32 in [0, 1]
+  (:func:`match_scores`). hloc finds a pair in either order; so does
+  :func:`write_matches`.
+
+Match files index keypoints, so they hold only as long as the features they were made
+from. liff marks both (HDF5 attributes, which hloc's readers do not look at): a
+features group's ``liff_digest`` is :func:`~liff.feature_file.content_digest` of its
+datasets, and a pair group made with the digests of its two images' groups holds them
+as ``liff_features0`` and ``liff_features1`` (and the names as ``liff_name0``,
+``liff_name1``). Features of a name that differ from those written before are not
+replaced without ``overwrite`` (:func:`add_feature_files` says which names changed),
+and :func:`write_matches` refuses to add to a match file whose pairs of the same
+images were made against other features.
 
 A light field's features are its centre view's: write the centre view as the image hloc
-(and COLMAP) is given, under the same name.
+(and COLMAP) is given, under the same name. :func:`add_feature_files` gives the keypoints
+in that view's pixels (view (T // 2, S // 2); for even view counts LiFF's centre frame
+lies between views, :func:`liff.feature_file.keypoints_in_centre_view`); to
+:func:`write_features` give them so.
 """
 
 from __future__ import annotations
@@ -24,12 +39,13 @@ from __future__ import annotations
 import os
 import shutil
 from contextlib import contextmanager
-from typing import Iterator, List, Optional, Sequence
+from typing import Iterator, List, NamedTuple, Optional, Sequence, Tuple
 
 import cv2
 import numpy as np
 
 from .colmap import grey_uint8_image, keypoints_to_colmap
+from .feature_file import content_digest
 from .io.images import write_image
 from .keypoint_rows import keypoint_slopes
 from .outputs import atomic_output
@@ -40,53 +56,71 @@ def names_to_pair(name0: str, name1: str) -> str:
     return "/".join((name0.replace("/", "-"), name1.replace("/", "-")))
 
 
-def _write_group(path, key: str, what: str, datasets: dict, overwrite: bool) -> None:
-    """Writes ``datasets`` as the group ``key`` of the HDF5 file ``path`` (made if
-    missing); an existing group is replaced with ``overwrite``, else a ValueError."""
+#: HDF5 attribute of a features group: the digest of its datasets
+DIGEST_ATTR = "liff_digest"
+#: HDF5 attributes of a pair group: its images' names and the digests of their features
+PAIR_NAME_ATTRS = ("liff_name0", "liff_name1")
+PAIR_DIGEST_ATTRS = ("liff_features0", "liff_features1")
+
+
+def _write_group(path, key: str, what: str, datasets: dict, overwrite: bool,
+                 attrs: Optional[dict] = None, aliases: Sequence[str] = ()) -> None:
+    """Writes ``datasets`` (and the HDF5 attributes ``attrs``) as the group ``key`` of
+    the HDF5 file ``path`` (made if missing); an existing group, under ``key`` or one of
+    ``aliases`` (other keys of the same thing), is replaced with ``overwrite``, else a
+    ValueError."""
     import h5py  # (a dependency of liff)
 
     with h5py.File(path, "a") as f:
-        if key in f:
+        for existing in dict.fromkeys((key,) + tuple(aliases)):
+            if existing not in f:
+                continue
             if not overwrite:
-                raise ValueError(f"{os.fspath(path)} already holds {what} {key!r}; expected a "
-                                 "new one, or overwrite=True")
-            del f[key]
+                raise ValueError(f"{os.fspath(path)} already holds {what} {existing!r}; "
+                                 "expected a new one, or overwrite=True")
+            del f[existing]
         group = f.create_group(key)
         for name, data in datasets.items():
             group.create_dataset(name, data=data)
+        group.attrs.update(attrs or {})
 
 
 def _check_name(name: str) -> str:
+    """Raises ValueError unless ``name`` is a relative image path that hloc's files and
+    its pairs.txt (read with ``str.split()``) hold as it is."""
     if not isinstance(name, str) or not name or name.startswith("/") or "//" in name:
         raise ValueError(f"image name {name!r}; expected a relative path such as 'scene/0001.png'")
+    if any(c.isspace() for c in name):
+        raise ValueError(f"image name {name!r} holds whitespace; expected a name without spaces, "
+                         "tabs or newlines (hloc reads pairs.txt split at whitespace)")
+    if any(part in (".", "..") for part in name.split("/")):
+        raise ValueError(f"image name {name!r} holds a '.' or '..' part; expected a path inside "
+                         "the image folder such as 'scene/0001.png'")
     return name
 
 
-def write_features(path: "os.PathLike", name: str, keypoints: Sequence[cv2.KeyPoint],
-                   descriptors: Optional[np.ndarray], image_size, overwrite: bool = False) -> None:
-    """Adds one light field's features to the hloc features file ``path`` (made if missing).
+def feature_datasets(keypoints: Sequence[cv2.KeyPoint], descriptors: Optional[np.ndarray],
+                     image_size) -> dict:
+    """The datasets of one image's group in an hloc features file (see the module
+    docstring), as :func:`write_features` writes them.
 
     Parameters
     ----------
-    path : path-like
-        The HDF5 features file (``feats-*.h5`` in hloc's outputs).
-    name : str
-        The image's name relative to the image folder given to hloc (its centre view).
     keypoints : sequence of cv2.KeyPoint
-        From :class:`liff.LiFF`, in centre-view pixels; their slopes go to ``slopes``.
+        In the pixels of the image hloc is given; their slopes go to ``slopes``.
     descriptors : ndarray, shape (N, D), or None when N == 0
         As ``detectAndCompute`` returns them; stored as float32 (D, N).
-    image_size : (width, height) of the centre view, pixels.
-    overwrite : bool
-        Replace a group of the same name; otherwise that is a ValueError.
+    image_size : (width, height) of the image, pixels.
+
+    Returns
+    -------
+    datasets : dict of str to ndarray
 
     Raises
     ------
     ValueError
-        For a name that is not a relative path, descriptors whose rows do not match the
-        keypoints, or an existing group (without ``overwrite``).
+        For descriptors whose rows do not match the keypoints.
     """
-    _check_name(name)
     n = len(keypoints)
     if descriptors is None:
         descriptors = np.zeros((0, 128), np.float32)
@@ -96,19 +130,139 @@ def write_features(path: "os.PathLike", name: str, keypoints: Sequence[cv2.KeyPo
                          "row per keypoint")
     width, height = (int(v) for v in image_size)
     colmap = keypoints_to_colmap(keypoints)  # (x + 0.5, y + 0.5, scale, orientation)
-    _write_group(path, name, "features of", {
+    return {
         "keypoints": (colmap[:, :2] - 0.5).astype(np.float32),
         "scores": np.array([k.response for k in keypoints], np.float32),
         "descriptors": descriptors.astype(np.float32).T,
-        "image_size": np.array([width, height]),
+        "image_size": np.array([width, height], np.int64),
         "scales": colmap[:, 2].astype(np.float32),
         "oris": np.degrees(colmap[:, 3]).astype(np.float32),
         "slopes": keypoint_slopes(keypoints).astype(np.float32),
-    }, overwrite)
+    }
+
+
+def write_features(path: "os.PathLike", name: str, keypoints: Sequence[cv2.KeyPoint],
+                   descriptors: Optional[np.ndarray], image_size, overwrite: bool = False) -> str:
+    """Adds one light field's features to the hloc features file ``path`` (made if missing).
+
+    Parameters
+    ----------
+    path : path-like
+        The HDF5 features file (``feats-*.h5`` in hloc's outputs).
+    name : str
+        The image's name relative to the image folder given to hloc (its centre view).
+    keypoints : sequence of cv2.KeyPoint
+        From :class:`liff.LiFF`, in the pixels of that image; their slopes go to ``slopes``.
+    descriptors : ndarray, shape (N, D), or None when N == 0
+        As ``detectAndCompute`` returns them; stored as float32 (D, N).
+    image_size : (width, height) of the centre view, pixels.
+    overwrite : bool
+        Replace a group of the same name; otherwise that is a ValueError.
+
+    Returns
+    -------
+    digest : str
+        The group's digest (its attribute ``liff_digest``), to give
+        :func:`write_matches` with this image's matches.
+
+    Raises
+    ------
+    ValueError
+        For a name that is not a relative path, descriptors whose rows do not match the
+        keypoints, or an existing group (without ``overwrite``).
+    """
+    _check_name(name)
+    return _write_features_group(path, name, feature_datasets(keypoints, descriptors, image_size),
+                                 overwrite)
+
+
+def _write_features_group(path, name: str, datasets: dict, overwrite: bool) -> str:
+    """Writes a features group with its digest attribute; returns the digest. A name
+    that is a folder of other images' names, or lies under another image's name, is a
+    ValueError (even with ``overwrite``: it would replace or nest in other images)."""
+    _refuse_nesting(path, name)
+    digest = content_digest(datasets)
+    _write_group(path, name, "features of", datasets, overwrite, {DIGEST_ATTR: digest})
+    return digest
+
+
+def _refuse_nesting(path, name: str) -> None:
+    """Raises ValueError if the features file ``path`` has ``name`` as a folder of other
+    images' groups, or an image's group at a folder of ``name``."""
+    if not os.path.exists(path):
+        return
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        group = f.get(name)
+        if isinstance(group, h5py.Group) and "keypoints" not in group:
+            inside = []
+            group.visititems(lambda key, item: inside.append(f"{name}/{key}")
+                             if isinstance(item, h5py.Group) and "keypoints" in item else None)
+            raise ValueError(f"{os.fspath(path)}: {name!r} is a folder of other images' names "
+                             f"there ({', '.join(inside[:3]) or 'no features'}); expected an "
+                             "image name that is not the folder of others")
+        parts = name.split("/")
+        for end in range(1, len(parts)):
+            folder = "/".join(parts[:end])
+            if isinstance(f.get(folder), h5py.Group) and "keypoints" in f[folder]:
+                raise ValueError(f"{os.fspath(path)}: {folder!r} holds an image's features; "
+                                 f"expected {name!r} not under another image's name")
+
+
+def features_digest(path: "os.PathLike", name: str) -> str:
+    """The digest of the features of ``name`` in the hloc features file ``path``: its
+    ``liff_digest`` attribute, or for a group written without one (by hloc, or an older
+    liff) the digest of its datasets.
+
+    Raises
+    ------
+    ValueError
+        If ``path`` holds no features of ``name``.
+    """
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        group = f.get(name)
+        if not isinstance(group, h5py.Group) or "keypoints" not in group:
+            raise ValueError(f"{os.fspath(path)} holds no features of {name!r}; expected a "
+                             "name written by write_features or liff detect --hloc")
+        return _group_digest(group)
+
+
+def _group_digest(group) -> str:
+    """A features group's digest (see :func:`features_digest`)."""
+    if DIGEST_ATTR in group.attrs:
+        return str(group.attrs[DIGEST_ATTR])
+    return content_digest({key: group[key][()] for key in group if key != DIGEST_ATTR})
+
+
+#: the norm of SIFT's descriptors (cv2.SIFT's and liff's, float or uint8): 512
+DESCRIPTOR_NORM = 512.0
+
+
+def match_scores(distances) -> np.ndarray:
+    """hloc's ``matching_scores0`` for L2 descriptor distances: the cosine similarity of
+    two descriptors of SIFT's norm 512, ``1 - d^2 / (2 * 512^2)``, clipped to [0, 1]; what
+    hloc's nearest-neighbour matcher scores normalised descriptors with (their dot
+    product), so that hloc's ``min_match_score`` thresholds mean the same.
+
+    Parameters
+    ----------
+    distances : array-like of float
+        L2 distances (``cv2.DMatch.distance``), finite and at least 0.
+
+    Returns
+    -------
+    scores : ndarray of float32
+    """
+    d = np.asarray(distances, np.float64) / DESCRIPTOR_NORM
+    return np.clip(1.0 - d * d / 2.0, 0.0, 1.0).astype(np.float32)
 
 
 def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence[cv2.DMatch],
-                  num_keypoints0: int, overwrite: bool = False) -> None:
+                  num_keypoints0: int, num_keypoints1: int, overwrite: bool = False,
+                  digests: Optional[Tuple[str, str]] = None) -> None:
     """Adds the matches of one pair to the hloc matches file ``path`` (made if missing).
 
     Parameters
@@ -119,31 +273,95 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
         The two images' names, as in the features file.
     matches : sequence of cv2.DMatch
         ``queryIdx`` in image 0, ``trainIdx`` in image 1 (as from ``BFMatcher.match``
-        or liff.matching); each query keypoint at most once.
-    num_keypoints0 : int
-        Keypoints of image 0 (the length of ``matches0``).
+        or liff.matching), ``distance`` the descriptors' L2 distance; each query
+        keypoint at most once.
+    num_keypoints0, num_keypoints1 : int
+        Keypoints of image 0 (the length of ``matches0``) and of image 1.
     overwrite : bool
-        Replace the pair's group; otherwise an existing pair is a ValueError.
+        Replace the pair's group, in either order (hloc's ``find_pair`` finds
+        ``name1/name0`` too); otherwise an existing pair is a ValueError.
+    digests : (str, str), optional
+        The digests of the two images' features (:func:`write_features` returns them,
+        :func:`features_digest` reads them back), recorded with the pair; the file's
+        other pairs of either image must have been made against the same features.
+
+    Raises
+    ------
+    ValueError
+        For a bad name, a match whose indices are outside the keypoints or whose
+        distance is negative or not finite, an existing pair (without ``overwrite``),
+        or pairs of ``name0`` or ``name1`` in the file that were made against other
+        features (their indices would not be those of the features now).
 
     Notes
     -----
-    ``matching_scores0`` is 1 / (1 + distance) for a match (higher is better, as hloc's
-    scores are), 0 elsewhere.
+    ``matching_scores0`` is :func:`match_scores` of the distance for a match (the
+    descriptors' cosine similarity, in [0, 1]), 0 elsewhere.
     """
     _check_name(name0)
     _check_name(name1)
-    matches0 = np.full(int(num_keypoints0), -1, np.int32)
-    scores0 = np.zeros(int(num_keypoints0), np.float32)
+    counts = []
+    for what, count in (("num_keypoints0", num_keypoints0), ("num_keypoints1", num_keypoints1)):
+        if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
+            raise ValueError(f"{what} {count!r}; expected a keypoint count, an int >= 0")
+        counts.append(int(count))
+    matches0 = np.full(counts[0], -1, np.int32)
+    distances = np.zeros(counts[0], np.float64)
     for m in matches:
-        if not 0 <= m.queryIdx < num_keypoints0:
-            raise ValueError(f"match queryIdx {m.queryIdx}; expected in [0, {num_keypoints0})")
+        if not 0 <= m.queryIdx < counts[0]:
+            raise ValueError(f"match queryIdx {m.queryIdx}; expected in [0, {counts[0]}), a "
+                             f"keypoint of {name0!r}")
+        if not 0 <= m.trainIdx < counts[1]:
+            raise ValueError(f"match trainIdx {m.trainIdx}; expected in [0, {counts[1]}), a "
+                             f"keypoint of {name1!r}")
+        if not (np.isfinite(m.distance) and m.distance >= 0):
+            raise ValueError(f"match distance {m.distance}; expected a descriptor distance, "
+                             "finite and >= 0")
         if matches0[m.queryIdx] != -1:
             raise ValueError(f"keypoint {m.queryIdx} of {name0!r} matched twice; expected "
                              "each at most once")
         matches0[m.queryIdx] = m.trainIdx
-        scores0[m.queryIdx] = 1.0 / (1.0 + m.distance)
-    _write_group(path, names_to_pair(name0, name1), "the pair",
-                 {"matches0": matches0, "matching_scores0": scores0}, overwrite)
+        distances[m.queryIdx] = m.distance
+    scores0 = np.where(matches0 != -1, match_scores(distances), 0).astype(np.float32)
+    key, reverse = names_to_pair(name0, name1), names_to_pair(name1, name0)
+    attrs = {}
+    if digests is not None:
+        attrs = dict(zip(PAIR_NAME_ATTRS + PAIR_DIGEST_ATTRS, (name0, name1) + tuple(digests)))
+        _refuse_stale_pairs(path, {name0: digests[0], name1: digests[1]}, {key, reverse})
+    _write_group(path, key, "the pair", {"matches0": matches0, "matching_scores0": scores0},
+                 overwrite, attrs, aliases=(reverse,))
+
+
+def _pair_groups(f) -> Iterator:
+    """The pair groups (two levels down, holding ``matches0``) of an open matches file."""
+    for first in f.values():
+        for group in getattr(first, "values", lambda: ())():
+            if hasattr(group, "keys") and "matches0" in group:
+                yield group
+
+
+def _refuse_stale_pairs(path, digests: dict, replaced: set) -> None:
+    """Raises ValueError if the matches file ``path`` holds a pair (other than the
+    groups ``replaced``) of an image of ``digests`` made against other features."""
+    if not os.path.exists(path):
+        return
+    import h5py
+
+    stale = []
+    with h5py.File(path, "r") as f:
+        for group in _pair_groups(f):
+            if group.name.lstrip("/") in replaced:
+                continue
+            for name_attr, digest_attr in zip(PAIR_NAME_ATTRS, PAIR_DIGEST_ATTRS):
+                name = group.attrs.get(name_attr)
+                if name in digests and group.attrs.get(digest_attr) != digests[name]:
+                    stale.append(f"{group.name.lstrip('/')} ({name} changed)")
+    if stale:
+        raise ValueError(f"{os.fspath(path)}: its pairs {', '.join(sorted(set(stale)))} were "
+                         "matched against other features than those given now (the features "
+                         "were replaced since, so their indices are stale); expected a matches "
+                         "file made against the current features: match into a new file, or "
+                         "remove that one and match every pair again")
 
 
 def image_name(feature_path: "os.PathLike") -> str:
@@ -164,13 +382,54 @@ def updated(path: "os.PathLike") -> Iterator[str]:
         yield partial
 
 
+class Added(NamedTuple):
+    """What :func:`add_feature_files` did: the image names, in the order of the feature
+    files, and those of them whose features were replaced by other ones (matches made
+    from the old ones are stale)."""
+
+    names: List[str]
+    replaced: List[str]
+
+
+def feature_file_group(features) -> Tuple[dict, np.ndarray]:
+    """The hloc datasets of a liff feature file's light field (:func:`feature_datasets`)
+    and its centre view, the image they go with: the keypoints in that view's pixels
+    (:meth:`~liff.feature_file.Features.centre_view_keypoints`; for even view counts
+    the centre frame lies between views).
+
+    Parameters
+    ----------
+    features : liff.feature_file.Features
+        As :func:`liff.feature_file.load_features` reads them, with a centre view.
+
+    Returns
+    -------
+    datasets : dict of str to ndarray
+    view : ndarray
+        The centre view.
+
+    Raises
+    ------
+    ValueError
+        If the features hold no centre view.
+    """
+    view = features.centre_view
+    if view is None:  # (its size is the image_size hloc needs)
+        raise ValueError("holds no centre view; expected a feature file from liff detect")
+    return feature_datasets(features.centre_view_keypoints(), features.descriptors,
+                            (view.shape[1], view.shape[0])), view
+
+
 def add_feature_files(path: "os.PathLike", feature_paths: Sequence["os.PathLike"],
-                      image_dir: Optional["os.PathLike"] = None) -> List[str]:
+                      image_dir: Optional["os.PathLike"] = None, overwrite: bool = False) -> Added:
     """Adds liff feature files (``.npz`` from ``liff detect``) to the hloc features file
-    ``path``, each as the group :func:`image_name` (replaced if there; other groups are
-    kept), and with ``image_dir`` writes each centre view there under that name (grey
-    8-bit PNG, as COLMAP reads it), the image folder hloc's triangulation and
-    reconstruction are given.
+    ``path``, each as the group :func:`image_name` (other groups are kept), and with
+    ``image_dir`` writes each centre view there under that name (grey 8-bit PNG, as
+    COLMAP reads it), the image folder hloc's triangulation and reconstruction are given.
+
+    A group already there with the same content is kept; one with other content (new
+    settings, or another capture of the same file name) is replaced only with
+    ``overwrite``, since match files made from it index its old keypoints.
 
     Parameters
     ----------
@@ -180,34 +439,50 @@ def add_feature_files(path: "os.PathLike", feature_paths: Sequence["os.PathLike"
         Feature files; their names must differ.
     image_dir : path-like, optional
         Where to write the centre views.
+    overwrite : bool
+        Replace groups whose content differs.
 
     Returns
     -------
-    names : list of str
-        The image names, in the order of ``feature_paths``.
+    added : Added
+        The image names, and those whose features were replaced.
 
     Raises
     ------
     ValueError
-        For two feature files of one name, or a file that is not a liff feature file
-        with its centre view.
+        For two feature files of one name, a file that is not a liff feature file with
+        its centre view, or groups of other content (without ``overwrite``; nothing is
+        written then).
     """
+    import h5py
+
     from .feature_file import load_features
 
     names = [image_name(p) for p in feature_paths]
     if len(set(names)) != len(names):
         raise ValueError(f"feature files give repeated image names {sorted(names)}; expected "
                          "distinct file names")
+    groups = []
+    for feature_path in feature_paths:
+        try:
+            groups.append(feature_file_group(load_features(feature_path)))
+        except ValueError as error:
+            raise ValueError(f"{os.fspath(feature_path)}: {error}") from None
+    replaced = []
+    if os.path.exists(path):
+        with h5py.File(path, "r") as f:
+            replaced = [name for name, (datasets, _) in zip(names, groups)
+                        if name in f and _group_digest(f[name]) != content_digest(datasets)]
+    if replaced and not overwrite:
+        raise ValueError(f"{os.fspath(path)} holds other features of {', '.join(replaced)} "
+                         "(other settings, or another capture of the same name); replacing "
+                         "them would leave the matches made from them stale; expected the "
+                         "same features, or --overwrite (overwrite=True) to replace them and "
+                         "then match those images again; nothing was written")
     with updated(path) as partial:
-        for name, feature_path in zip(names, feature_paths):
-            features = load_features(feature_path)
-            view = features.centre_view
-            if view is None:  # (its size is the image_size hloc needs)
-                raise ValueError(f"{os.fspath(feature_path)}: holds no centre view; expected a "
-                                 "feature file from liff detect")
-            write_features(partial, name, features.keypoints, features.descriptors,
-                           (view.shape[1], view.shape[0]), overwrite=True)
+        for name, (datasets, view) in zip(names, groups):
+            _write_features_group(partial, name, datasets, True)
             if image_dir is not None:
                 with atomic_output(os.path.join(image_dir, name)) as image:
                     write_image(image, grey_uint8_image(view))
-    return names
+    return Added(names, replaced)

@@ -15,7 +15,8 @@ import cv2
 from .. import __version__, batch
 from .._detector import as_read_in_place
 from .._warnings import LiffWarning
-from ..feature_file import Features, centre_view, content_problem, read_meta, save_features
+from ..feature_file import (Features, centre_view, content_problem, keypoints_in_centre_view,
+                            read_meta, save_features)
 from ..io.images import write_image
 from ..outputs import atomic_output, refuse_inputs
 from ..plot import draw_keypoints_by_slope
@@ -56,8 +57,10 @@ def add_parser(sub) -> None:
                         "...-2.csv when a run of the same second has taken it)")
     p.add_argument("--hloc", default=None, metavar="FEATS.h5",
                    help="also add every output's features to this hloc features file (a group "
-                        "per light field named OUTPUT-NAME.png), for "
-                        "hloc's matchers, triangulation and reconstruction")
+                        "per light field named OUTPUT-NAME.png), for hloc's matchers, "
+                        "triangulation and reconstruction; a group of other features than "
+                        "before is replaced only with --overwrite, since matches made from it "
+                        "are stale")
     p.add_argument("--hloc-images", default=None, metavar="DIR",
                    help="with --hloc: write each centre view here under its group's name (the "
                         "image folder hloc is given)")
@@ -135,7 +138,8 @@ def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
         save_features(partial, Features(tuple(keypoints), descriptors, view, meta))
     if plot:
         with atomic_output(plot) as partial:
-            picture = draw_keypoints_by_slope(view, keypoints, (built[0], built[-1]))
+            picture = draw_keypoints_by_slope(view, keypoints_in_centre_view(
+                keypoints, light_field.shape), (built[0], built[-1]))
             write_image(partial, picture)
     return Detected(len(keypoints), slope_range, len(searched), len(built), slopes_from, notes)
 
@@ -392,9 +396,13 @@ def run(args: argparse.Namespace) -> int:
         from ..hloc import add_feature_files
 
         written = [o.output for o in outcomes + kept if o.status != "failed"]
-        names = add_feature_files(args.hloc, written, args.hloc_images)
-        print(f"hloc: {len(names)} light field(s) -> {args.hloc}"
+        added = add_feature_files(args.hloc, written, args.hloc_images, args.overwrite)
+        print(f"hloc: {len(added.names)} light field(s) -> {args.hloc}"
               + (f", centre views -> {args.hloc_images}" if args.hloc_images else ""))
+        if added.replaced:
+            print(f"hloc: replaced the features of {', '.join(added.replaced)} with other ones: "
+                  "matches of them made before are stale (liff match --hloc refuses to add to "
+                  "those match files); match them again into a new file", file=sys.stderr)
     if failed:
         print(f"liff detect: {failed} of {len(tasks)} light field(s) failed", file=sys.stderr)
     return 1 if failed else 0

@@ -79,18 +79,20 @@ def run(args: argparse.Namespace) -> int:
               f"scene (expected at least {MIN_INLIERS}, and {CHANCE_FACTOR}x the {chance} that "
               "RANSAC keeps among randomly re-paired matches)", file=sys.stderr)
     if args.hloc:
-        from ..hloc import image_name, updated, write_matches
+        from ..feature_file import content_digest
+        from ..hloc import feature_file_group, image_name, updated, write_matches
 
+        digests = tuple(content_digest(feature_file_group(f)[0]) for f in (fa, fb))
         with updated(args.hloc) as partial:
             write_matches(partial, image_name(args.a), image_name(args.b), matches,
-                          len(fa.keypoints), overwrite=True)
+                          len(fa.keypoints), len(fb.keypoints), overwrite=True, digests=digests)
         print(f"hloc: {len(matches)} matches of {image_name(args.a)} and {image_name(args.b)} "
               f"-> {args.hloc}")
     if args.plot:
         if fa.centre_view is None or fb.centre_view is None:
             raise ValueError("--plot needs the centre views; the feature files hold none")
-        picture = draw_inliers(to_display(fa.centre_view), fa.keypoints,
-                               to_display(fb.centre_view), fb.keypoints, result)
+        picture = draw_inliers(to_display(fa.centre_view), fa.centre_view_keypoints(),
+                               to_display(fb.centre_view), fb.centre_view_keypoints(), result)
         with atomic_output(args.plot) as partial:
             write_image(partial, picture)
     return 0

@@ -10,6 +10,7 @@ import os
 import numpy as np
 
 from ..feature_file import Features, features_from_light_field, load_features
+from ..outputs import atomic_output, refuse_inputs
 from . import common
 from .calibration import add_camera_options, camera_from_args
 from .match import is_feature_file
@@ -31,6 +32,7 @@ def add_parser(sub) -> None:
                    help="scale-sensitive matching: reject candidates whose metric sizes differ "
                         "by more than K (e.g. 1.5)")
     p.add_argument("--out", default=None, help="write R, t and the inlier count as JSON")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
     add_camera_options(p)
     common.add_reader_options(p)
     common.add_detector_options(p)
@@ -76,6 +78,11 @@ def carries_camera(path: str, args: argparse.Namespace) -> bool:
 def run(args: argparse.Namespace) -> int:
     from ..pose import estimate_relative_pose
 
+    if args.out:  # before anything is read or detected
+        refuse_inputs([args.out], [args.a, args.b], "--out")
+        if os.path.exists(args.out) and not args.overwrite:
+            raise ValueError(f"{args.out}: exists; expected a new --out path (or --overwrite to "
+                             "replace it); nothing was written")
     camera = camera_from_args(args)
     without = [path for path in (args.a, args.b) if not carries_camera(path, args)]
     if camera is None and without:  # said before anything is read or detected
@@ -99,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
           f"{np.linalg.norm(t):.6g} m; rotation {angle:.4f} deg")
     print("centre of B in A's frame: " + np.array2string(-R.T @ t, precision=6, suppress_small=True) + " m")
     if args.out:
-        with open(args.out, "w", encoding="utf-8") as f:
+        with atomic_output(args.out) as partial, open(partial, "w", encoding="utf-8") as f:
             json.dump({"R": R.tolist(), "t": t.tolist(), "inliers": len(matches),
                        "convention": "X_B = R X_A + t, metres, OpenCV camera frames"}, f, indent=2)
         print(f"wrote {args.out}")

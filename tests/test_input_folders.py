@@ -186,3 +186,30 @@ def test_the_only_input_failing_has_its_manifest_row_naming_the_flag(tmp_path, c
     assert "cannot tell the lenslet size" in row["error"] and "(--lenslet N)" in row["error"]
     assert "n=" not in row["error"]
     assert "(--lenslet N)" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("pattern, message", [
+    ("(", "--pattern '(' is not a regular expression (missing ), unterminated subpattern"),
+    ("view", "--pattern view has groups []; expected named groups (?P<t>...)"),
+])
+def test_a_pattern_that_is_no_views_pattern_is_an_error_naming_the_flag(tmp_path, capsys,
+                                                                        pattern, message):
+    """Break test of issue 31: --pattern '(' printed re.error's traceback."""
+    views_folder(tmp_path / "scene")
+    assert main(["detect", str(tmp_path / "scene"), "--pattern", pattern, "--dry-run"]) == 1
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err and "re.error" not in err
+
+
+@pytest.mark.parametrize("where", ["scene", "."])
+def test_a_pattern_matching_no_view_of_a_views_folder_says_so(tmp_path, capsys, where):
+    """The folder's views were taken as lenslet images when --pattern matched none."""
+    views_folder(tmp_path / "scene", (2, 3, 8, 8))
+    given = str(tmp_path / where)
+    assert main(["detect", given, "--pattern", r"x_(?P<t>\d+)_(?P<s>\d+)\.png", "--dry-run"]) == 1
+    err = capsys.readouterr().err
+    assert f"no file in {tmp_path / 'scene'} matches --pattern 'x_(?P<t>\\d+)_(?P<s>\\d+)\\.png'" \
+           in err and "eslf" not in err
+    assert main(["detect", given, "--pattern", r"view_(?P<t>\d+)_(?P<s>\d+)\.png",
+                 "--dry-run"]) == 0
+    assert f"{tmp_path / 'scene'}: views (views: 6 images" in capsys.readouterr().out

@@ -20,6 +20,7 @@ from typing import List, Optional, Sequence, Tuple
 
 from ..io.formats import FORMATS, OPTIONS, formats_taking
 from ..io.layout import Entry, expand as expand_path
+from ..io.views import compile_pattern
 from .._paths import refuse_special
 from . import common
 
@@ -104,11 +105,15 @@ def expand(paths: Sequence[str], options: dict, from_list: Optional[str] = None,
     Raises
     ------
     ValueError
-        Naming the pattern, folder or list file that gave no light field, a list line's
+        Naming the pattern, folder or list file that gave no light field, a ``--pattern``
+        that is not a views pattern or matches no file of a folder of views, a list line's
         option that does not fit its input's format, or a command-line option that fits
         no input's format.
     """
     given = [(path, {}) for path in paths] + (read_list(from_list) if from_list else [])
+    compile_pattern(options.get("pattern"), None, "--pattern")
+    for _, listed in given:
+        compile_pattern(listed.get("pattern"), from_list, "--pattern")
     inputs: List[Input] = []
     left_out: List[Entry] = []
     for path, listed in given:

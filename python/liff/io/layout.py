@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import fnmatch
 import os
+import shlex
 import warnings
 from dataclasses import dataclass
 from typing import List, Optional, Sequence, Tuple
@@ -68,25 +69,42 @@ def _not_input(path: str, why: str) -> Entry:
     return Entry(path, None, f"not an input: {why}")
 
 
+class UnlistedFolder(ValueError):
+    """A folder that cannot be listed (a sub-folder of a walk is skipped, said so)."""
+
+
 def _listing(folder: str) -> List[str]:
     """The folder's names but hidden ones, sorted (ValueError naming an unreadable one)."""
     try:
         with os.scandir(folder) as entries:
             return sorted(e.name for e in entries if not e.name.startswith("."))
     except OSError as error:
-        raise ValueError(f"{folder}: cannot list the folder ({error.strerror}); expected a "
+        raise UnlistedFolder(f"{folder}: cannot list the folder ({error.strerror}); expected a "
                          "readable folder of light fields or of views") from None
 
 
 def folder_format(folder: str, names: Sequence[str], format: Optional[str] = None,
                   pattern: Optional[str] = None) -> Optional[Entry]:
     """The entry of ``folder`` if it is one light field (HCI scene, views), else None.
-    ``pattern`` (``--pattern``): view names matched whole instead of the default rule."""
+    ``pattern`` (``--pattern``): view names matched whole instead of the default rule.
+
+    Raises
+    ------
+    ValueError
+        If ``pattern`` is not a views pattern, or matches none of the names of a folder
+        the default rule takes as views (its images are not lenslet images).
+    """
     if format in (None, "hci") and FORMATS["hci"].recognises(folder, names):
         return Entry(folder, "hci", "HCI scene: input_CamNNN.png views")
     if format not in (None, "views"):
         return None
     views = view_names(names, pattern)
+    if pattern and not views:
+        by_default = view_names(names)
+        if len(by_default) >= 2:
+            raise ValueError(f"no file in {folder} matches --pattern {shlex.quote(pattern)}; expected a "
+                             f"pattern the names of its views match whole (such as "
+                             f"{by_default[0]})")
     if len(views) >= (1 if pattern else 2):
         return Entry(folder, "views", f"views: {len(views)} images named by row and column"
                      + (" (--pattern)" if pattern else "") + f", e.g. {views[0]}")
@@ -170,7 +188,7 @@ def walk(folder: str, format: Optional[str] = None, pattern: Optional[str] = Non
         if os.path.isdir(path):
             try:
                 found += walk(path, format, pattern, features, seen)
-            except ValueError as error:  # an unreadable sub-folder (lost+found): the rest go on
+            except UnlistedFolder as error:  # an unreadable sub-folder (lost+found): the rest go on
                 warnings.warn(f"{error}; skipped", LiffWarning, stacklevel=2)
         elif itself is None or not path.lower().endswith(IMAGE_SUFFIXES) \
                 or FORMATS["eslf"].recognises(path):

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 import re
+import shlex
 from typing import Dict, List, Optional, Pattern, Tuple, Union
 
 import numpy as np
@@ -32,18 +33,43 @@ from .images import header_size
 NUMBER_RUN = re.compile(r"(?:^|(?<=[_\-])|(?<=(?<!\d)\.))(\d+(?:_\d+)+)(?=$|[_\-]|\.(?!\d))")
 
 
-def _compile(pattern: Union[str, Pattern, None], folder: str) -> Optional[Pattern]:
+def compile_pattern(pattern: Union[str, Pattern, None], where: Optional[str],
+                    name: str = "pattern") -> Optional[Pattern]:
+    """``pattern`` (the views' file names) compiled and checked to have the named groups
+    ``t`` and ``s``, or ``index``.
+
+    Parameters
+    ----------
+    pattern : str, compiled regex or None
+        None gives None.
+    where : str or None
+        What the message starts with (the folder), or None.
+    name : str
+        What the pattern is called in the message: ``pattern`` (the keyword of
+        :func:`read_views`) or ``--pattern`` (the command line's flag).
+
+    Raises
+    ------
+    ValueError
+        If ``pattern`` is not a regular expression or lacks the groups.
+    """
     if pattern is None:
         return None
+    at = f"{where}: " if where else ""
     try:
         regex = re.compile(pattern)
     except re.error as e:
-        raise ValueError(f"{folder}: pattern {pattern!r} is not a regular expression ({e})") from None
+        raise ValueError(f"{at}{name} {shlex.quote(pattern)} is not a regular expression ({e}); expected "
+                         f"a regular expression with {GROUPS}") from None
     groups = set(regex.groupindex)
     if not ({"t", "s"} <= groups or "index" in groups):
-        raise ValueError(f"{folder}: pattern {regex.pattern!r} has groups {sorted(groups)}; "
-                         f"expected named groups (?P<t>...) and (?P<s>...), or (?P<index>...)")
+        raise ValueError(f"{at}{name} {shlex.quote(regex.pattern)} has groups {sorted(groups)}; "
+                         f"expected {GROUPS}")
     return regex
+
+
+#: what a views pattern must hold, for messages
+GROUPS = "named groups (?P<t>...) and (?P<s>...), or (?P<index>...)"
 
 
 def _indices_in_runs(folder: str, runs: Dict[str, Tuple[int, ...]]) -> Dict[str, Tuple[int, int]]:
@@ -76,8 +102,14 @@ def _indices_in_runs(folder: str, runs: Dict[str, Tuple[int, ...]]) -> Dict[str,
 def view_names(names, pattern: Union[str, Pattern, None] = None) -> List[str]:
     """The file names among ``names`` that :func:`read_views` takes as views: images
     whose name carries view indices (the default rule), or names ``pattern`` matches
-    whole. Names only: nothing is opened."""
-    regex = re.compile(pattern) if isinstance(pattern, str) else pattern
+    whole. Names only: nothing is opened.
+
+    Raises
+    ------
+    ValueError
+        If ``pattern`` is not a regular expression with the named groups.
+    """
+    regex = compile_pattern(pattern, None) if isinstance(pattern, str) else pattern
     if regex is not None:
         return [name for name in names if regex.fullmatch(name)]
     found = []
@@ -211,7 +243,7 @@ def read_views(folder: PathLike, grid=None, pattern: Union[str, Pattern, None] =
     folder = os.fspath(folder)
     if not os.path.isdir(folder):
         raise ValueError(f"{folder}: not a folder; expected a folder of views")
-    regex = _compile(pattern, folder)
+    regex = compile_pattern(pattern, folder)
     linear = regex is not None and "t" not in regex.groupindex
     T, S, first, views = _arrange(folder, _find_views(folder, regex, grid, linear), grid, linear)
     complete = len(views) == T * S

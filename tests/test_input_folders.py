@@ -213,3 +213,21 @@ def test_a_pattern_matching_no_view_of_a_views_folder_says_so(tmp_path, capsys, 
     assert main(["detect", given, "--pattern", r"view_(?P<t>\d+)_(?P<s>\d+)\.png",
                  "--dry-run"]) == 0
     assert f"{tmp_path / 'scene'}: views (views: 6 images" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("command", ["match", "pose"])
+def test_pose_and_match_apply_each_option_where_it_fits(tmp_path, capsys, command):
+    """Break test of issue 31: each input of liff pose/match was resolved alone, so
+    --lenslet, which the lenslet image takes, was refused for the npz."""
+    eslf = lenslet_image(tmp_path / "IMG_0001.eslf.png", 5, 32)
+    npz = light_field_npz(tmp_path / "a.npz", key="lf")
+    camera = ["--camera", "300", "0.04", "15.5", "15.5"] if command == "pose" else []
+    main([command, str(eslf), str(npz), "--lenslet", "5", "--key", "lf"] + camera)
+    captured = capsys.readouterr()
+    assert "do not apply" not in captured.err and "no array" not in captured.err
+    if command == "match":
+        assert f"{eslf}: " in captured.out and " features; " in captured.out
+    # an option no input takes is still refused, naming its flag
+    assert main([command, str(eslf), str(npz), "--grid", "3", "3"] + camera) == 1
+    assert "option(s) --grid do not apply to format 'eslf', 'npz' of any input" \
+           in capsys.readouterr().err

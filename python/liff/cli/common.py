@@ -278,13 +278,21 @@ def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] 
     return [item.path for item in expand(paths, options, from_list, features)[0]]
 
 
-def input_options(path: str, args: argparse.Namespace) -> dict:
-    """The reader options ``path`` (one input given by itself) is read with: its
-    format as liff.io.layout tells it, and the command line's options that format
-    takes (ValueError naming a flag it does not take)."""
+def input_options(paths: Sequence[str], args: argparse.Namespace) -> List[dict]:
+    """The reader options each of ``paths`` (light fields given by themselves: ``liff
+    pose A B``, ``liff match A B``) is read with: its format as liff.io.layout tells it,
+    and the command line's options that format takes, resolved over all of them as for
+    a batch (ValueError naming a flag that no input takes, or a folder holding more than
+    one light field)."""
     from .inputs import expand
 
-    return expand([path], reader_options(args), features=True)[0][0].options
+    inputs = expand(paths, reader_options(args), features=True)[0]
+    found = {os.path.realpath(item.path): item.options for item in inputs}
+    for path in paths:
+        if os.path.realpath(path) not in found:
+            raise ValueError(f"{path}: a folder of {len(inputs)} light fields or more; expected "
+                             "one light field (a file, or a folder of views)")
+    return [found[os.path.realpath(path)] for path in paths]
 
 
 def shown_options(options: dict) -> str:

@@ -55,10 +55,12 @@ def is_feature_file(path: str) -> bool:
         return False
 
 
-def features_of(path: str, args: argparse.Namespace) -> Features:
+def features_of(path: str, options: dict, args: argparse.Namespace) -> Features:
+    """The features of a feature file, or of a light field read with ``options``
+    (:func:`common.input_options`) and detected with the command line's parameters."""
     if is_feature_file(path):
         return load_features(path)
-    light_field = common.load_light_field(path, common.input_options(path, args), args.preprocess)
+    light_field = common.load_light_field(path, options, args.preprocess)
     detector = common.make_detector(common.detector_parameters(args))
     return features_from_light_field(detector, light_field)
 
@@ -67,7 +69,8 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         refuse_inputs([args.plot], [args.a, args.b], "--plot")
     common.check_hloc_output(args.hloc, [args.a, args.b], "--hloc")
-    fa, fb = features_of(args.a, args), features_of(args.b, args)
+    options_a, options_b = common.input_options([args.a, args.b], args)
+    fa, fb = features_of(args.a, options_a, args), features_of(args.b, options_b, args)
     matches = ratio_matches(fa.descriptors, fb.descriptors, args.ratio)
     result = verify(fa.keypoints, fb.keypoints, matches, args.model, args.threshold)
     print(f"{args.a}: {len(fa.keypoints)} features; {args.b}: {len(fb.keypoints)} features")

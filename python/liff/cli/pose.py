@@ -39,13 +39,14 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def features_and_camera(path: str, args: argparse.Namespace):
-    """(Features, the camera the file's reader knows or None)."""
+def features_and_camera(path: str, options: dict, args: argparse.Namespace):
+    """(Features, the camera the file's reader knows or None); ``options``: the reader
+    options of ``path`` (:func:`common.input_options`)."""
     if is_feature_file(path):
         return load_features(path), None
     from .. import io
 
-    source = io.read_light_field(path, **common.input_options(path, args))
+    source = io.read_light_field(path, **options)
     light_field = source.light_field
     if args.preprocess:
         from ..preprocess import prepare
@@ -89,8 +90,9 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"no camera calibration for {' and '.join(without)}: give --camera F B "
                          "CX CY (and --focus-distance), --camera-file, --hci or --lftoolbox, or "
                          "inputs that carry one (HCI scenes with the camera in parameters.cfg)")
-    fa, camera_a = features_and_camera(args.a, args)
-    fb, camera_b = features_and_camera(args.b, args)
+    options_a, options_b = common.input_options([args.a, args.b], args)
+    fa, camera_a = features_and_camera(args.a, options_a, args)
+    fb, camera_b = features_and_camera(args.b, options_b, args)
     if camera is not None:
         camera_a = camera_b = camera
     _check(fa, args.a)

@@ -231,3 +231,25 @@ def test_pose_and_match_apply_each_option_where_it_fits(tmp_path, capsys, comman
     assert main([command, str(eslf), str(npz), "--grid", "3", "3"] + camera) == 1
     assert "option(s) --grid do not apply to format 'eslf', 'npz' of any input" \
            in capsys.readouterr().err
+
+
+def test_warnings_while_reading_are_notes_and_one_clean_line(tmp_path, capsys):
+    """Break test of issue 31: a MissingViewsWarning raised while reading escaped as a
+    raw Python warning and missed the manifest's notes."""
+    import warnings
+
+    scene = tmp_path / "scene"
+    liff.io.write_views(scene, liff.synthetic.textured_layers((3, 3, 64, 64), seed=2)
+                        .light_field.astype(np.float32).clip(0, 1).__mul__(255).astype(np.uint8))
+    (scene / "view_02_02.png").unlink()
+    out = tmp_path / "out"
+    with warnings.catch_warnings(record=True) as escaped:
+        warnings.simplefilter("always")
+        assert main(["detect", str(scene), "--grid", "3", "3", "--out", str(out / "f.npz"),
+                     "--manifest", str(tmp_path / "m.csv")]) == 0
+    assert not [w for w in escaped if issubclass(w.category, liff.LiffWarning)]
+    with open(tmp_path / "m.csv", newline="") as f:
+        (row,) = list(csv.DictReader(f))
+    assert "1 of 9 views missing" in row["notes"]
+    err = capsys.readouterr().err
+    assert f"liff detect: {scene}: warning: {scene}: 1 of 9 views missing" in err

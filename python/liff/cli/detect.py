@@ -117,13 +117,15 @@ def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
                parameters: dict, mask_spec: Optional[str] = None) -> Detected:
     """Reads, detects and writes one light field; returns what it found."""
     identity = common.input_identity(path)  # before reading: a change meanwhile is redone
-    light_field, metadata = common.read_input(path, options, preprocess)
-    # A copy detection would make (Fortran order) is made now, so that it counts.
-    light_field = as_read_in_place(light_field)
-    resolved, slopes_from = common.slope_range(parameters, metadata)
-    detector = common.make_detector(resolved)
+    # the warnings about the input, reading (missing views, lenslet size) and detecting,
+    # are its notes: the manifest's, and one line each on stderr
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", LiffWarning)
+        light_field, metadata = common.read_input(path, options, preprocess)
+        # A copy detection would make (Fortran order) is made now, so that it counts.
+        light_field = as_read_in_place(light_field)
+        resolved, slopes_from = common.slope_range(parameters, metadata)
+        detector = common.make_detector(resolved)
         keypoints, descriptors = detector.detectAndCompute(
             light_field, mask.load_mask(mask_spec, light_field, path))
     notes = [str(w.message) for w in caught if issubclass(w.category, LiffWarning)]

@@ -253,3 +253,27 @@ def test_warnings_while_reading_are_notes_and_one_clean_line(tmp_path, capsys):
     assert "1 of 9 views missing" in row["notes"]
     err = capsys.readouterr().err
     assert f"liff detect: {scene}: warning: {scene}: 1 of 9 views missing" in err
+
+
+def test_a_quoted_glob_follows_the_rules_of_a_folder_walk(tmp_path, capsys):
+    """Break test of issue 31: 'lyt/*' took liff's sidecars and feature files as inputs,
+    followed a link back up (selfloop -> .), and 'data/**/*.png' took the views of a
+    folder as lenslet images."""
+    data = tmp_path / "data"
+    lenslet_image(data / "IMG_0001.png")
+    np.save(data / "IMG_0001.png.slopes.npy", np.zeros((6, 6)))
+    (data / "IMG_0001.png.truth.json").write_text("{}")
+    np.savez(data / "kp.npz", keypoints=np.zeros((1, 6)), descriptors=np.zeros((1, 4)))
+    views_folder(data / "scene")
+    os.symlink(".", data / "selfloop")
+    inputs, left_out = expand([str(data / "*")], {})
+    assert [(os.path.relpath(i.path, data), i.format) for i in inputs] == [
+        ("IMG_0001.png", "eslf"), ("scene", "views")]
+    assert sorted(os.path.basename(e.path) for e in left_out) == [
+        "IMG_0001.png.slopes.npy", "IMG_0001.png.truth.json", "kp.npz", "selfloop"]
+    inputs, left_out = expand([str(data / "**" / "*.png")], {})
+    assert [(os.path.relpath(i.path, data), i.format) for i in inputs] == [
+        ("IMG_0001.png", "eslf"), ("scene", "views")]
+    # a pattern that matches only what is not a light field says so
+    assert main(["detect", str(data / "*.npy"), "--dry-run"]) == 1
+    assert "none of the 1 path(s) it matches is a light field" in capsys.readouterr().err

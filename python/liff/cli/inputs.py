@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import List, Optional, Sequence, Tuple
 
 from ..io.formats import FORMATS, OPTIONS, formats_taking
-from ..io.layout import Entry, expand as expand_path
+from ..io.layout import Entry, expand as expand_path, expand_match
 from ..io.views import compile_pattern
 from .._paths import refuse_special
 from . import common
@@ -119,18 +119,23 @@ def expand(paths: Sequence[str], options: dict, from_list: Optional[str] = None,
     for path, listed in given:
         fmt = listed.get("format", options.get("format"))
         pattern = listed.get("pattern", options.get("pattern"))
-        if not os.path.exists(path) and glob.has_magic(path):
+        globbed = not os.path.exists(path) and glob.has_magic(path)
+        if globbed:
             matches = common._glob(path)
             if not matches:
                 raise ValueError(f"{path}: no file matches the pattern; expected light fields")
         else:
             matches = [path]
-        found = 0
+        found, folders = 0, {}
         for match in matches:
-            taken, skipped = expand_path(match, fmt, pattern, features)
+            taken, skipped = (expand_match(match, fmt, pattern, features, folders) if globbed
+                              else expand_path(match, fmt, pattern, features))
             inputs += [Input(e.path, e.format, why=e.why, listed=listed) for e in taken]
             left_out += skipped
             found += len(taken)
+        if not found and globbed:
+            raise ValueError(f"{path}: none of the {len(matches)} path(s) it matches is a light "
+                             "field (see --dry-run); expected light field files and folders")
         if not found:
             raise ValueError(f"{path}: no light field in the folder; expected view images "
                              "(one light field) or light field files and folders")

@@ -15,6 +15,8 @@ the registry (:mod:`liff.io.formats`):
   ``*.truth.json``, run manifests, feature files) is never an input;
 - hidden names are skipped, sub-folders walked at any depth, links back up ignored.
 
+What a quoted glob pattern matches goes through the same rules (:func:`expand_match`).
+
 With a format given (``--format``), only what that format reads is taken. A path given
 by itself goes through the same rules (:func:`classify`).
 """
@@ -190,10 +192,56 @@ def walk(folder: str, format: Optional[str] = None, pattern: Optional[str] = Non
                 found += walk(path, format, pattern, features, seen)
             except UnlistedFolder as error:  # an unreadable sub-folder (lost+found): the rest go on
                 warnings.warn(f"{error}; skipped", LiffWarning, stacklevel=2)
-        elif itself is None or not path.lower().endswith(IMAGE_SUFFIXES) \
-                or FORMATS["eslf"].recognises(path):
+        elif itself is None or not _is_view(path):
             found.append(classify(path, format, itself is not None, features))
     return found
+
+
+def _is_view(path: str) -> bool:
+    """Whether ``path``, in a folder that is one light field, is one of its images (a
+    lenslet image's name says it is not)."""
+    return path.lower().endswith(IMAGE_SUFFIXES) and not FORMATS["eslf"].recognises(path)
+
+
+def through_link_back_up(path: str) -> Optional[str]:
+    """The part of ``path`` that is a link to a folder holding it (``selfloop -> .``):
+    ``path`` reached through it repeats its folder; None if there is none."""
+    parts = os.path.normpath(path).split(os.sep)
+    for i in range(1, len(parts) + 1):
+        part = os.sep.join(parts[:i]) or os.sep
+        if os.path.islink(part) and os.path.isdir(part):
+            target = os.path.realpath(part)
+            holder = os.path.realpath(os.path.dirname(part) or ".")
+            if holder == target or holder.startswith(target.rstrip(os.sep) + os.sep):
+                return part
+    return None
+
+
+def expand_match(path: str, format: Optional[str] = None, pattern: Optional[str] = None,
+                 features: bool = False, folders: Optional[dict] = None
+                 ) -> Tuple[List[Entry], List[Entry]]:
+    """(inputs, entries left out) of a path a glob pattern matched: by the rules of a
+    folder walk, not as a path given by itself. A folder is walked; a file is what it
+    would be in its folder's walk: liff's sidecars are left out, and an image of a
+    folder that is one light field stands for that folder; a path reached through a
+    link to a folder holding it (a loop) is left out.
+
+    ``folders``: {folder: its entry or None}, kept between the matches of one pattern
+    (each folder is listed once)."""
+    folders = {} if folders is None else folders
+    loop = through_link_back_up(path)
+    if loop is not None:
+        entries = [_not_input(path, f"reached through {loop}, a link to a folder holding it")]
+    elif os.path.isdir(path):
+        entries = walk(path, format, pattern, features)
+    else:
+        folder = os.path.dirname(path) or "."
+        if folder not in folders:
+            folders[folder] = folder_format(folder, _listing(folder), format, pattern)
+        itself = folders[folder]
+        entries = [itself if itself is not None and _is_view(path)
+                   else classify(path, format, itself is not None, features)]
+    return [e for e in entries if e.is_input], [e for e in entries if not e.is_input]
 
 
 def expand(path: str, format: Optional[str] = None, pattern: Optional[str] = None,

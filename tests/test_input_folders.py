@@ -277,3 +277,24 @@ def test_a_quoted_glob_follows_the_rules_of_a_folder_walk(tmp_path, capsys):
     # a pattern that matches only what is not a light field says so
     assert main(["detect", str(data / "*.npy"), "--dry-run"]) == 1
     assert "none of the 1 path(s) it matches is a light field" in capsys.readouterr().err
+
+
+def test_every_list_line_is_split_as_a_shell_would(tmp_path):
+    """Break test of issue 31: a line without ' --' kept its quotes and a trailing
+    comment as part of the path; a name holding ' --' could not be listed."""
+    odd = light_field_npz(tmp_path / "my scan --final.npz")
+    plain = light_field_npz(tmp_path / "scene b.npz")
+    todo = tmp_path / "todo.txt"
+    todo.write_text(f"'{plain}'\n{tmp_path / 'scene'}\\ b.npz   # a comment\n"
+                    f"  # indented comment\n\n'{odd}'\n\"{odd}\" --key light_field\n")
+    (tmp_path / "scene").mkdir()
+    inputs, _ = expand([], {}, str(todo))
+    assert [(i.path, i.options) for i in inputs] == [
+        (str(plain), {"format": "npz"}), (str(odd), {"format": "npz"})]
+    todo.write_text(f"{plain}\n")  # unquoted spaces: two words
+    with pytest.raises(ValueError, match=rf"{todo}, line 1: .* are 2 words; expected a path "
+                                         r"\(quoted if it holds spaces\)"):
+        expand([], {}, str(todo))
+    todo.write_text(f"'{plain}\n")
+    with pytest.raises(ValueError, match=rf"{todo}, line 1: No closing quotation"):
+        expand([], {}, str(todo))

@@ -37,7 +37,8 @@ def add_parser(sub) -> None:
     p.add_argument("--from-list", default=None, metavar="FILE",
                    help="a text file of more inputs, one a line (# comments), so a dataset "
                         "need not fit on the command line; a line may add reader options "
-                        "for its input after the path (IMG_1.png --lenslet 14)")
+                        "for its input after the path (IMG_1.png --lenslet 14); lines are "
+                        "split as a shell would: quote paths with spaces")
     p.add_argument("--out", default=None,
                    help="output .npz (one input) or folder (default: <name>.npz here)")
     p.add_argument("--plot", default=None,

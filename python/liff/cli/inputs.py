@@ -58,14 +58,15 @@ def list_line_parser() -> argparse.ArgumentParser:
 
 
 def read_list(path: str) -> List[Tuple[str, dict]]:
-    """(path, options) of each line of a list file: blank lines and ``#`` comments
-    skipped; a line with `` --`` is split as a shell would (quote paths with spaces)
-    into a path and reader options, others are a path as they stand.
+    """(path, options) of each line of a list file: every line is split as a shell
+    would (quotes, ``#`` comments), into a path and reader options; blank and comment
+    lines are skipped. Quote a path with spaces, quotes, ``#`` or `` --`` in it.
 
     Raises
     ------
     ValueError
-        Naming the file (and line): unreadable, or options that do not parse.
+        Naming the file (and line): unreadable, more than one path on a line, or
+        options that do not parse.
     """
     refuse_special(path, "a text file of light field paths, one a line")
     try:
@@ -76,18 +77,18 @@ def read_list(path: str) -> List[Tuple[str, dict]]:
         raise ValueError(f"{path}: cannot read the list ({reason}); expected a text file of "
                          "light field paths, one a line") from None
     parser, listed = list_line_parser(), []
+    expected = "expected a path (quoted if it holds spaces), then reader options such as --lenslet 14"
     for number, line in enumerate(lines, 1):
-        if not line or line.startswith("#"):
-            continue
-        if " --" not in line:
-            listed.append((line, {}))
-            continue
         try:
             words = shlex.split(line, comments=True)
+            if not words:
+                continue
             parsed, unknown = parser.parse_known_args(words[1:])
         except (ValueError, argparse.ArgumentError) as error:
-            raise ValueError(f"{path}, line {number}: {error}; expected a path, then reader "
-                             "options such as --lenslet 14") from None
+            raise ValueError(f"{path}, line {number}: {error}; {expected}") from None
+        if unknown and not any(word.startswith("-") for word in unknown):
+            raise ValueError(f"{path}, line {number}: {shlex.join([words[0]] + unknown)} are "
+                             f"{len(unknown) + 1} words; {expected}")
         if unknown:
             raise ValueError(f"{path}, line {number}: {' '.join(unknown)} is not a reader option; "
                              f"expected {', '.join(['--format'] + [o.flag for o in OPTIONS.values()])}")

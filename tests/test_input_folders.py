@@ -44,6 +44,13 @@ def views_folder(folder: Path, shape=(3, 3, 16, 16)) -> Path:
     return folder
 
 
+def list_refused(todo: Path, text: str, match: str) -> None:
+    """Asserts that the list file ``todo`` holding ``text`` is refused with ``match``."""
+    todo.write_text(text)
+    with pytest.raises(ValueError, match=match):
+        expand([], {}, str(todo))
+
+
 def taken(entries) -> list:
     return [(os.path.basename(e.path), e.format) for e in entries if e.is_input]
 
@@ -138,17 +145,14 @@ def test_a_list_mixing_formats_carries_options_per_line(tmp_path):
         ("eslf", {"n": 5, "keep": 3, "bit_depth": 8, "format": "eslf"}),
         ("npz", {"key": "lf", "bit_depth": 8, "format": "npz"}),
         ("eslf", {"n": 7, "bit_depth": 8, "format": "eslf"})]
-    todo.write_text(f"{npz} --lenslet 14\n")
-    with pytest.raises(ValueError, match=rf"{todo}: {npz}: --lenslet do not apply to format 'npz'; "
-                                         r"expected --key, --bit-depth"):
-        expand([], {}, str(todo))
-    todo.write_text(f"{npz} --lenslet fourteen\n")
-    with pytest.raises(ValueError, match=rf"{todo}, line 1: .*--lenslet.*fourteen"):
-        expand([], {}, str(todo))
-    todo.write_text(f"{npz} --n 14\n")
-    with pytest.raises(ValueError, match=rf"{todo}, line 1: --n 14 is not a reader option; "
-                                         r"expected --format, --grid, --lenslet"):
-        expand([], {}, str(todo))
+    list_refused(todo, f"{npz} --lenslet 14\n",
+                 rf"{todo}: {npz}: --lenslet do not apply to format 'npz'; "
+                 r"expected --key, --bit-depth")
+    list_refused(todo, f"{npz} --lenslet fourteen\n",
+                 rf"{todo}, line 1: .*--lenslet.*fourteen")
+    list_refused(todo, f"{npz} --n 14\n",
+                 rf"{todo}, line 1: --n 14 is not a reader option; "
+                 r"expected --format, --grid, --lenslet")
 
 
 def test_options_apply_where_they_fit_and_the_manifest_says_where(tmp_path, capsys):
@@ -291,10 +295,8 @@ def test_every_list_line_is_split_as_a_shell_would(tmp_path):
     inputs, _ = expand([], {}, str(todo))
     assert [(i.path, i.options) for i in inputs] == [
         (str(plain), {"format": "npz"}), (str(odd), {"format": "npz"})]
-    todo.write_text(f"{plain}\n")  # unquoted spaces: two words
-    with pytest.raises(ValueError, match=rf"{todo}, line 1: .* are 2 words; expected a path "
-                                         r"\(quoted if it holds spaces\)"):
-        expand([], {}, str(todo))
-    todo.write_text(f"'{plain}\n")
-    with pytest.raises(ValueError, match=rf"{todo}, line 1: No closing quotation"):
-        expand([], {}, str(todo))
+    list_refused(todo, f"{plain}\n",
+                 rf"{todo}, line 1: .* are 2 words; expected a path "
+                 r"\(quoted if it holds spaces\)")  # unquoted spaces: two words
+    list_refused(todo, f"'{plain}\n",
+                 rf"{todo}, line 1: No closing quotation")

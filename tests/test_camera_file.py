@@ -103,7 +103,7 @@ def test_camera_files_that_hold_no_camera_are_refused_clearly(tmp_path):
              "broken.json": ("{", r"unreadable JSON"),
              "badH.json": ('{"EstCamIntrinsicsH": [[1, 2], [3, 4]]}', r"EstCamIntrinsicsH: .*5"),
              "text.json": ('{"baseline": "wide", "intrinsics": {"focal": 1, "cx": 0, "cy": 0}, '
-                           '"focus_depth": 1}', r"expected numbers")}
+                           '"focus_depth": 1}', r"baseline is \"wide\"; expected a number")}
     for name, (content, message) in cases.items():
         (tmp_path / name).write_text(content)
         with pytest.raises(ValueError, match=re.escape(str(tmp_path / name)) + ".*" + message):
@@ -122,3 +122,23 @@ def test_pose_and_sfm_offer_the_camera_file(tmp_path, capsys):
         assert args.camera_file == "c.json"
     assert main(["pose", "a.npz", "b.npz", "--camera-file", str(tmp_path / "none.json")]) == 1
     assert "none.json: no such file; expected a camera file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("field, value, message", [
+    ("baseline", True, "baseline is true; expected a number"),
+    ("baseline", "0.04", 'baseline is "0.04"; expected a number'),
+    ("focal", None, "no intrinsics.focal; expected liff synth's truth"),
+    ("baseline", float("nan"), "baseline = nan; expected a positive finite number"),
+    ("baseline", -0.04, "baseline = -0.04; expected a positive finite number"),
+])
+def test_a_truth_file_field_that_is_no_number_is_refused_naming_file_and_field(
+        tmp_path, field, value, message):
+    """Break test of issue 31: true and "0.04" were taken as numbers (float()), and a
+    nan or negative baseline's error did not name the file."""
+    truth = {"intrinsics": {"focal": 300.0, "cx": 63.5, "cy": 47.5}, "baseline": 0.04,
+             "focus_depth": 5.0}
+    (truth["intrinsics"] if field == "focal" else truth)[field] = value
+    path = tmp_path / "cam.truth.json"
+    path.write_text(json.dumps(truth))
+    with pytest.raises(ValueError, match=re.escape(f"{path}: {message}")):
+        read_camera_file(str(path))

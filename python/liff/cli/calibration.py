@@ -92,11 +92,14 @@ def read_camera_file(path: str) -> LightFieldCamera:
         if missing:
             raise ValueError(f"{path}: no {', '.join(missing)}; expected liff synth's truth with "
                              f"{', '.join(SYNTH_FIELDS)}")
+        for name, value in values.items():  # (float() would take true and "0.04")
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValueError(f"{path}: {name} is {json.dumps(value)}; expected a number")
+        f, b, cx, cy, focus = (float(values[name]) for name in SYNTH_FIELDS)
         try:
-            f, b, cx, cy, focus = (float(values[name]) for name in SYNTH_FIELDS)
-        except (TypeError, ValueError):
-            raise ValueError(f"{path}: {values}; expected numbers for {', '.join(SYNTH_FIELDS)}") from None
-        return LightFieldCamera(f, b, (cx, cy), focus)
+            return LightFieldCamera(f, b, (cx, cy), focus)
+        except ValueError as error:
+            raise ValueError(f"{path}: {error}") from None
     for name in TOOLBOX_FIELDS:
         H = _field(data, name)
         if H is not None:

@@ -120,7 +120,7 @@ def test_the_command_line_writes_hloc_files(tmp_path, capsys):
             assert f[name]["descriptors"].shape == (128, len(features.keypoints))
     matches_file = tmp_path / "hloc" / "matches-liff.h5"
     assert main(["match", str(tmp_path / "feats" / "scene0.npz"), str(tmp_path / "feats" / "scene1.npz"),
-                 "--hloc", str(matches_file)]) == 0
+                 "--hloc", str(matches_file), "--hloc-features", str(feats)]) == 0
     count = int(re.search(r"hloc: (\d+) matches of scene0.png and scene1.png", capsys.readouterr().out)[1])
     pairs, scores = hloc_get_matches(matches_file, "scene0.png", "scene1.png")
     assert len(pairs) == count and np.all(scores > 0)
@@ -158,8 +158,8 @@ def test_other_features_of_a_name_are_replaced_only_with_overwrite(tmp_path, cap
     feats, matches = tmp_path / "feats-liff.h5", tmp_path / "matches-liff.h5"
     assert main(["detect", str(tmp_path / "lf"), "--out", str(tmp_path / "feats"), "--hloc", str(feats)]) == 0
     a, b, c = (str(tmp_path / "feats" / f"scene{i}.npz") for i in range(3))
-    assert main(["match", a, b, "--hloc", str(matches)]) == 0
-    assert main(["match", a, c, "--hloc", str(matches)]) == 0
+    assert main(["match", a, b, "--hloc", str(matches), "--hloc-features", str(feats)]) == 0
+    assert main(["match", a, c, "--hloc", str(matches), "--hloc-features", str(feats)]) == 0
     before = hloc_get_keypoints(feats, "scene0.png")
     capsys.readouterr()
     other = str(tmp_path / "other-feats" / "scene0.npz")
@@ -177,11 +177,11 @@ def test_other_features_of_a_name_are_replaced_only_with_overwrite(tmp_path, cap
         hloc_get_keypoints(feats, "scene0.png"), before)
     # the old match file indexes the old keypoints: adding to it is refused, naming the
     # pair left stale (the pair matched again would replace its own group)
-    assert main(["match", other, b, "--hloc", str(matches)]) == 1
+    assert main(["match", other, b, "--hloc", str(matches), "--hloc-features", str(feats)]) == 1
     error = capsys.readouterr().err
     assert "scene0.png/scene2.png (scene0.png changed)" in error and "stale" in error
     assert "scene0.png/scene1.png" not in error
-    assert main(["match", other, b, "--hloc", str(tmp_path / "matches-new.h5")]) == 0
+    assert main(["match", other, b, "--hloc", str(tmp_path / "matches-new.h5"), "--hloc-features", str(feats)]) == 0
     pairs, _ = hloc_get_matches(tmp_path / "matches-new.h5", "scene0.png", "scene1.png")
     assert pairs[:, 0].max() < len(hloc_get_keypoints(feats, "scene0.png"))
 
@@ -349,3 +349,146 @@ def test_an_image_name_is_not_the_folder_of_others(tmp_path, two_views):
         write_features(path, "lf1/c.png", keypoints, descriptors, (128, 96))
     with h5py.File(path, "r") as f:
         assert sorted(f) == ["lf0", "lf1"] and sorted(f["lf0"]) == ["centre.png"]
+
+
+# --- second break test (issue 29): refusals before anything is written -------------------
+
+@pytest.fixture(scope="module")
+def arc(tmp_path_factory):
+    """Three tiny poses, their feature files, an hloc features file and a matches file."""
+    from liff.cli import main
+
+    root = tmp_path_factory.mktemp("arc")
+    assert main(["synth", "poses", "--out", str(root / "arc"), "--views", "3", "--size", "64", "80",
+                 "--poses", "3", "--quiet"]) == 0
+    feats, matches = root / "feats.h5", root / "matches.h5"
+    assert main(["detect", str(root / "arc"), "--out", str(root / "f"), "--hloc", str(feats), "--quiet"]) == 0
+    assert main(["match", str(root / "f" / "pose00.npz"), str(root / "f" / "pose01.npz"), "--hloc",
+                 str(matches), "--hloc-features", str(feats)]) == 0
+    return root
+
+
+def snapshot(path):
+    return path.read_bytes()
+
+
+def test_an_hloc_file_of_the_other_kind_is_refused(arc, tmp_path, capsys, two_views):
+    from liff.cli import main
+
+    feats, matches = arc / "feats.h5", arc / "matches.h5"
+    before = snapshot(feats), snapshot(matches)
+    out = tmp_path / "f"
+    assert main(["detect", str(arc / "arc" / "pose00.npz"), "--out", str(out / "pose00.npz"),
+                 "--hloc", str(matches)]) == 1
+    error = capsys.readouterr().err
+    assert "is an hloc matches file" in error and "expected an hloc features file" in error
+    assert "Traceback" not in error and not out.exists()
+    f0, f1 = (str(arc / "f" / f"pose0{i}.npz") for i in (0, 2))
+    assert main(["match", f0, f1, "--hloc", str(feats), "--hloc-features", str(feats)]) == 1
+    assert "is an hloc features file" in capsys.readouterr().err
+    assert (snapshot(feats), snapshot(matches)) == before
+    _, (keypoints, descriptors) = two_views
+    with pytest.raises(ValueError, match="matches.h5 is an hloc matches file"):
+        write_features(matches, "z.png", keypoints, descriptors, (128, 96))
+    with pytest.raises(ValueError, match="feats.h5 is an hloc features file"):
+        write_matches(feats, "pose00.png", "pose02.png", [], 0, 0)
+    assert (snapshot(feats), snapshot(matches)) == before
+
+
+def test_match_checks_the_features_file_the_matches_index(arc, tmp_path, capsys):
+    from liff.cli import main
+
+    feats = arc / "feats.h5"
+    f0, f2 = (str(arc / "f" / f"pose0{i}.npz") for i in (0, 2))
+    stale = tmp_path / "other" / "pose00.npz"  # other settings, not exported to feats.h5
+    assert main(["detect", str(arc / "arc" / "pose00.npz"), "--out", str(stale), "--nfeatures", "5",
+                 "--quiet"]) == 0
+    new = tmp_path / "m.h5"
+    assert main(["match", str(stale), f2, "--hloc", str(new), "--hloc-features", str(feats)]) == 1
+    error = capsys.readouterr().err
+    assert "pose00.png (" in error and "stale" in error and "liff detect --hloc" in error
+    assert "pose02.png" not in error.split("holds other features of")[1].split("than")[0]
+    assert not new.exists()
+    assert main(["match", f0, f2, "--hloc", str(new)]) == 1
+    assert "--hloc without --hloc-features" in capsys.readouterr().err
+    assert main(["match", f0, f2, "--hloc-features", str(feats)]) == 1
+    assert "--hloc-features without --hloc" in capsys.readouterr().err
+    assert main(["match", f0, f2, "--hloc", str(new), "--hloc-features", str(tmp_path / "none.h5")]) == 1
+    assert "does not exist" in capsys.readouterr().err and not new.exists()
+    assert main(["match", f0, f2, "--hloc", str(new), "--hloc-features", str(feats)]) == 0
+
+
+def test_write_matches_checks_the_features_file(arc, tmp_path):
+    from liff.hloc import features_digest
+
+    feats = arc / "feats.h5"
+    d0, d1 = features_digest(feats, "pose00.png"), features_digest(feats, "pose01.png")
+    with h5py.File(feats, "r") as f:
+        n0, n1 = len(f["pose00.png"]["keypoints"]), len(f["pose01.png"]["keypoints"])
+    path = tmp_path / "m.h5"
+    with pytest.raises(ValueError, match=r"other features of pose00.png \(other features there\)"):
+        write_matches(path, "pose00.png", "pose01.png", [], n0, n1, digests=("x", d1), features=feats)
+    with pytest.raises(ValueError, match=rf"pose01.png \({n1} keypoints there, {n1 + 1} matched\)"):
+        write_matches(path, "pose00.png", "pose01.png", [], n0, n1 + 1, features=feats)
+    with pytest.raises(ValueError, match=r"holds no features of 'q.png'"):
+        write_matches(path, "pose00.png", "q.png", [], n0, 0, features=feats)
+    assert not path.exists()
+    write_matches(path, "pose00.png", "pose01.png", [], n0, n1, features=feats)  # its digests recorded
+    with h5py.File(path, "r") as f:
+        assert f["pose00.png/pose01.png"].attrs["liff_features1"] == d1
+
+
+def test_detect_says_which_feature_files_it_wrote_when_hloc_refuses(arc, tmp_path, capsys):
+    from liff.cli import main
+
+    feats = tmp_path / "feats.h5"
+    feats.write_bytes((arc / "feats.h5").read_bytes())
+    before = snapshot(feats)
+    out = tmp_path / "other" / "pose00.npz"
+    assert main(["detect", str(arc / "arc" / "pose00.npz"), "--out", str(out), "--nfeatures", "5",
+                 "--hloc", str(feats)]) == 1
+    error = capsys.readouterr().err
+    assert "other features of pose00.png" in error and f"the feature files were written ({out})" in error
+    assert out.exists() and snapshot(feats) == before
+
+
+def test_an_image_pair_of_one_name_is_refused(arc, tmp_path, capsys):
+    from liff.cli import main
+
+    twin = tmp_path / "twin" / "pose00.npz"
+    twin.parent.mkdir()
+    twin.write_bytes((arc / "f" / "pose00.npz").read_bytes())
+    new = tmp_path / "m.h5"
+    assert main(["match", str(arc / "f" / "pose00.npz"), str(twin), "--hloc", str(new),
+                 "--hloc-features", str(arc / "feats.h5")]) == 1
+    assert "both images are named 'pose00.png'" in capsys.readouterr().err and not new.exists()
+    with pytest.raises(ValueError, match="both images are named 'a.png'"):
+        write_matches(new, "a.png", "a.png", [], 0, 0)
+
+
+def test_hloc_images_are_not_overwritten_unasked(arc, tmp_path, capsys):
+    from liff.cli import main
+
+    images = tmp_path / "images"
+    images.mkdir()
+    (images / "pose00.png").write_bytes(b"someone else's")
+    args = ["detect", str(arc / "arc" / "pose00.npz"), "--out", str(tmp_path / "f" / "pose00.npz"),
+            "--hloc", str(tmp_path / "feats.h5"), "--hloc-images", str(images)]
+    assert main(args) == 1
+    error = capsys.readouterr().err
+    assert str(images / "pose00.png") in error and "--overwrite" in error
+    assert (images / "pose00.png").read_bytes() == b"someone else's"
+    assert not (tmp_path / "f").exists() and not (tmp_path / "feats.h5").exists()
+    assert main(args + ["--overwrite"]) == 0
+    assert main(args) == 0  # now its own export: a re-run is no clash
+    assert cv2.imread(str(images / "pose00.png"), cv2.IMREAD_UNCHANGED).ndim == 2
+
+
+def test_detect_refuses_names_hloc_cannot_hold_before_writing(arc, tmp_path, capsys):
+    from liff.cli import main
+
+    out = tmp_path / "f" / "my pose.npz"
+    assert main(["detect", str(arc / "arc" / "pose00.npz"), "--out", str(out),
+                 "--hloc", str(tmp_path / "feats.h5")]) == 1
+    assert "'my pose.png' holds whitespace" in capsys.readouterr().err
+    assert not out.exists() and not (tmp_path / "feats.h5").exists()

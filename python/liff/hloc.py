@@ -172,6 +172,7 @@ def write_features(path: "os.PathLike", name: str, keypoints: Sequence[cv2.KeyPo
         keypoints, or an existing group (without ``overwrite``).
     """
     _check_name(name)
+    check_file_kind(path, "features")
     return _write_features_group(path, name, feature_datasets(keypoints, descriptors, image_size),
                                  overwrite)
 
@@ -230,6 +231,64 @@ def features_digest(path: "os.PathLike", name: str) -> str:
         return _group_digest(group)
 
 
+def check_file_kind(path: "os.PathLike", kind: str) -> None:
+    """Raises ValueError if the HDF5 file ``path`` (when it exists) holds groups of the
+    other kind than ``kind``: pair groups (holding ``matches0``) in what should be a
+    features file, or image groups (holding ``keypoints``) in what should be a matches
+    file; adding to it would give a file that hloc's readers fail on.
+
+    Parameters
+    ----------
+    path : path-like
+        An HDF5 file, or a path where none exists yet (nothing to check).
+    kind : {"features", "matches"}
+        What ``path`` is given as.
+    """
+    if kind not in ("features", "matches"):
+        raise ValueError(f"kind {kind!r}; expected 'features' or 'matches'")
+    if not os.path.exists(path):
+        return
+    import h5py
+
+    other, marker = ("matches", "matches0") if kind == "features" else ("features", "keypoints")
+    found = []
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda key, item: found.append(key) if isinstance(item, h5py.Group)
+                     and marker in item else None)
+    if found:
+        raise ValueError(f"{os.fspath(path)} is an hloc {other} file (it holds "
+                         f"{', '.join(repr(k) for k in found[:3])}"
+                         f"{', ...' if len(found) > 3 else ''}, groups with {marker!r}); "
+                         f"expected an hloc {kind} file, or a new path")
+
+
+def features_in(path, names: Sequence[str]) -> List[Tuple[str, int]]:
+    """The (digest, keypoint count) of the features of each of ``names`` in the hloc
+    features file ``path``.
+
+    Raises
+    ------
+    ValueError
+        If ``path`` does not exist, is a matches file, or holds no features of some of
+        ``names`` (naming them).
+    """
+    import h5py
+
+    if not os.path.exists(path):
+        raise ValueError(f"features file {os.fspath(path)} does not exist; expected the hloc "
+                         "features file the matches index (liff detect --hloc writes it)")
+    check_file_kind(path, "features")
+    with h5py.File(path, "r") as f:
+        groups = [f.get(name) for name in names]
+        missing = [name for name, group in zip(names, groups)
+                   if not isinstance(group, h5py.Group) or "keypoints" not in group]
+        if missing:
+            raise ValueError(f"{os.fspath(path)} holds no features of {', '.join(map(repr, missing))}; "
+                             "expected the features file those images were exported to (liff "
+                             "detect --hloc FEATS.h5 on their feature files)")
+        return [(_group_digest(group), len(group["keypoints"])) for group in groups]
+
+
 def _group_digest(group) -> str:
     """A features group's digest (see :func:`features_digest`)."""
     if DIGEST_ATTR in group.attrs:
@@ -262,7 +321,8 @@ def match_scores(distances) -> np.ndarray:
 
 def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence[cv2.DMatch],
                   num_keypoints0: int, num_keypoints1: int, overwrite: bool = False,
-                  digests: Optional[Tuple[str, str]] = None) -> None:
+                  digests: Optional[Tuple[str, str]] = None,
+                  features: Optional["os.PathLike"] = None) -> None:
     """Adds the matches of one pair to the hloc matches file ``path`` (made if missing).
 
     Parameters
@@ -284,6 +344,10 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
         The digests of the two images' features (:func:`write_features` returns them,
         :func:`features_digest` reads them back), recorded with the pair; the file's
         other pairs of either image must have been made against the same features.
+    features : path-like, optional
+        The hloc features file the matches index: it must hold both names, with these
+        ``digests`` (when given; otherwise its digests are recorded) and
+        ``num_keypoints0``/``num_keypoints1`` keypoints.
 
     Raises
     ------
@@ -291,20 +355,29 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
         For a bad name, a match whose indices are outside the keypoints or whose
         distance is negative or not finite, an existing pair (without ``overwrite``),
         or pairs of ``name0`` or ``name1`` in the file that were made against other
-        features (their indices would not be those of the features now).
+        features (their indices would not be those of the features now); with
+        ``features``, names it holds no features of, or features there whose digest or
+        keypoint count is not that given (stale: the matches would index other keypoints).
+        Also for a pair of one image with itself, or a features file given as ``path``.
 
     Notes
     -----
     ``matching_scores0`` is :func:`match_scores` of the distance for a match (the
     descriptors' cosine similarity, in [0, 1]), 0 elsewhere.
     """
-    _check_name(name0)
-    _check_name(name1)
+    check_pair_names(name0, name1)
     counts = []
     for what, count in (("num_keypoints0", num_keypoints0), ("num_keypoints1", num_keypoints1)):
         if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
             raise ValueError(f"{what} {count!r}; expected a keypoint count, an int >= 0")
         counts.append(int(count))
+    if digests is not None and (isinstance(digests, str) or len(digests) != 2
+                                or not all(isinstance(d, str) for d in digests)):
+        raise ValueError(f"digests {digests!r}; expected two strings, the digests of "
+                         f"{name0!r}'s and {name1!r}'s features (write_features returns them)")
+    check_file_kind(path, "matches")
+    if features is not None:
+        digests = _check_features(features, (name0, name1), digests, counts)
     matches0 = np.full(counts[0], -1, np.int32)
     distances = np.zeros(counts[0], np.float64)
     for m in matches:
@@ -330,6 +403,38 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
         _refuse_stale_pairs(path, {name0: digests[0], name1: digests[1]}, {key, reverse})
     _write_group(path, key, "the pair", {"matches0": matches0, "matching_scores0": scores0},
                  overwrite, attrs, aliases=(reverse,))
+
+
+def check_pair_names(name0: str, name1: str) -> None:
+    """Raises ValueError unless ``name0`` and ``name1`` are image names hloc's files hold
+    (see :func:`write_features`) and differ (a pair of an image with itself is no pair)."""
+    _check_name(name0)
+    _check_name(name1)
+    if name0 == name1:
+        raise ValueError(f"both images are named {name0!r}; expected two images of different "
+                         "names (a pair of an image with itself; two feature files of the same "
+                         "file name go into hloc's files under the same name)")
+
+
+def _check_features(features, names: Sequence[str], digests: Optional[Sequence[str]],
+                    counts: Sequence[int]) -> Tuple[str, str]:
+    """The digests of ``names``' features in the hloc features file ``features``;
+    ValueError where they are not ``digests`` (when given) or have not ``counts``
+    keypoints: the matches would index other keypoints than the file's."""
+    found = features_in(features, names)
+    stale = []
+    for i, (name, (digest, count)) in enumerate(zip(names, found)):
+        if count != counts[i]:
+            stale.append(f"{name} ({count} keypoints there, {counts[i]} matched)")
+        elif digests is not None and digest != digests[i]:
+            stale.append(f"{name} (other features there)")
+    if stale:
+        raise ValueError(f"{os.fspath(features)} holds other features of {', '.join(stale)} "
+                         "than those matched: the matches would index keypoints that are not "
+                         "there (stale); expected the features file they were exported to: "
+                         "re-run liff detect --hloc on their feature files, or give the right "
+                         "features file")
+    return found[0][0], found[1][0]
 
 
 def _pair_groups(f) -> Iterator:
@@ -420,6 +525,62 @@ def feature_file_group(features) -> Tuple[dict, np.ndarray]:
                             (view.shape[1], view.shape[0])), view
 
 
+def check_export(path: "os.PathLike", feature_paths: Sequence["os.PathLike"],
+                 image_dir: Optional["os.PathLike"] = None, overwrite: bool = False) -> List[str]:
+    """What :func:`add_feature_files` checks before it reads the feature files, so that a
+    command can check it before it writes them: ``path`` is no matches file, the image
+    names (:func:`image_name`) are distinct names hloc's files hold, and no file at
+    ``image_dir``/name is an image that ``path`` holds no features of (an image liff did
+    not export there; replaced only with ``overwrite``).
+
+    Parameters
+    ----------
+    path : path-like
+        The hloc features file (it need not exist).
+    feature_paths : sequence of path-like
+        The feature files to add (they need not exist yet).
+    image_dir : path-like, optional
+        Where the centre views go.
+    overwrite : bool
+        Replace unrelated files in ``image_dir``.
+
+    Returns
+    -------
+    names : list of str
+        The image names.
+
+    Raises
+    ------
+    ValueError
+        For any of those, naming the file or names.
+    """
+    import h5py
+
+    check_file_kind(path, "features")
+    names = [image_name(p) for p in feature_paths]
+    if len(set(names)) != len(names):
+        raise ValueError(f"feature files give repeated image names {sorted(names)}; expected "
+                         "distinct file names")
+    for name, feature_path in zip(names, feature_paths):
+        try:
+            _check_name(name)
+        except ValueError as error:
+            raise ValueError(f"{os.fspath(feature_path)}: {error}") from None
+    if image_dir is not None and not overwrite:
+        held = set()
+        if os.path.exists(path):
+            with h5py.File(path, "r") as f:
+                held = {name for name in names if name in f}
+        foreign = [os.path.join(image_dir, name) for name in names if name not in held
+                   and os.path.lexists(os.path.join(image_dir, name))]
+        if foreign:
+            raise ValueError(f"{', '.join(foreign)} exist(s) and {os.fspath(path)} holds no "
+                             "features of them (not images liff exported with it); expected "
+                             "new image names in the --hloc-images folder, or --overwrite "
+                             "(overwrite=True) to replace them")
+    return names
+
+
 def add_feature_files(path: "os.PathLike", feature_paths: Sequence["os.PathLike"],
                       image_dir: Optional["os.PathLike"] = None, overwrite: bool = False) -> Added:
     """Adds liff feature files (``.npz`` from ``liff detect``) to the hloc features file
@@ -450,18 +611,15 @@ def add_feature_files(path: "os.PathLike", feature_paths: Sequence["os.PathLike"
     Raises
     ------
     ValueError
-        For two feature files of one name, a file that is not a liff feature file with
-        its centre view, or groups of other content (without ``overwrite``; nothing is
-        written then).
+        For what :func:`check_export` refuses, a file that is not a liff feature file
+        with its centre view, or groups of other content (without ``overwrite``); nothing
+        is written then.
     """
     import h5py
 
     from .feature_file import load_features
 
-    names = [image_name(p) for p in feature_paths]
-    if len(set(names)) != len(names):
-        raise ValueError(f"feature files give repeated image names {sorted(names)}; expected "
-                         "distinct file names")
+    names = check_export(path, feature_paths, image_dir, overwrite)
     groups = []
     for feature_path in feature_paths:
         try:
@@ -478,7 +636,8 @@ def add_feature_files(path: "os.PathLike", feature_paths: Sequence["os.PathLike"
                          "(other settings, or another capture of the same name); replacing "
                          "them would leave the matches made from them stale; expected the "
                          "same features, or --overwrite (overwrite=True) to replace them and "
-                         "then match those images again; nothing was written")
+                         "then match those images again; nothing was written to it"
+                         + (" or to the images folder" if image_dir is not None else ""))
     with updated(path) as partial:
         for name, (datasets, view) in zip(names, groups):
             _write_features_group(partial, name, datasets, True)

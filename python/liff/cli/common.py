@@ -341,14 +341,16 @@ def protected_inputs(args: argparse.Namespace) -> List[str]:
     return args.paths + getattr(args, "given_paths", [])
 
 
-def check_hloc_output(path: Optional[str], inputs: Sequence[str], flag: str) -> None:
+def check_hloc_output(path: Optional[str], inputs: Sequence[str], flag: str, kind: str) -> None:
     """Before anything runs: an hloc file ``path`` (if given) is none of ``inputs`` nor
-    inside them, h5py is there, and a file already at ``path`` is HDF5 (its other groups are kept).
+    inside them, h5py is there, and a file already at ``path`` is an HDF5 file of that
+    ``kind`` ("features" or "matches", :func:`liff.hloc.check_file_kind`; its other
+    groups are kept).
 
     Raises
     ------
     ValueError
-        For an input, or a file that is not HDF5, at ``path``.
+        For an input, a file that is not HDF5, or an hloc file of the other kind, at ``path``.
     ImportError
         Without h5py.
     """
@@ -365,6 +367,12 @@ def check_hloc_output(path: Optional[str], inputs: Sequence[str], flag: str) -> 
     if os.path.exists(path) and not h5py.is_hdf5(path):
         raise ValueError(f"{path}: exists and is not an HDF5 file; expected a new {flag} path "
                          "or an hloc file to add to; nothing was written")
+    from ..hloc import check_file_kind
+
+    try:
+        check_file_kind(path, kind)
+    except ValueError as error:
+        raise ValueError(f"{flag}: {error}; nothing was written") from None
 
 
 def output_name(path: str, suffix: str) -> str:

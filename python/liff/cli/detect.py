@@ -366,12 +366,17 @@ def run(args: argparse.Namespace) -> int:
         return dry_run(args)
     tasks, kept, redo = plan(args, common.reader_options(args),
                              common.detector_parameters(args, given_only=True))
-    common.check_hloc_output(args.hloc, common.protected_inputs(args), "--hloc")
+    common.check_hloc_output(args.hloc, common.protected_inputs(args), "--hloc", "features")
     if args.hloc_images and not args.hloc:
         raise ValueError("--hloc-images without --hloc; expected both (the features file and "
                          "its images)")
     if args.hloc_images:
         refuse_inputs([args.hloc_images], common.protected_inputs(args), "--hloc-images")
+    if args.hloc:  # before any output is written
+        from ..hloc import check_export
+
+        check_export(args.hloc, [task.output for task in tasks] + [o.output for o in kept],
+                     args.hloc_images, args.overwrite)
     manifest = args.manifest
     if manifest:
         check_manifest(manifest, args, tasks, kept)
@@ -399,7 +404,14 @@ def run(args: argparse.Namespace) -> int:
         from ..hloc import add_feature_files
 
         written = [o.output for o in outcomes + kept if o.status != "failed"]
-        added = add_feature_files(args.hloc, written, args.hloc_images, args.overwrite)
+        try:
+            added = add_feature_files(args.hloc, written, args.hloc_images, args.overwrite)
+        except ValueError as error:  # (only what detection decides: the rest was checked)
+            if not tasks:
+                raise
+            raise ValueError(f"{error}; the feature files were written ("
+                             f"{', '.join(o.output for o in outcomes if o.status == 'done')})"
+                             ) from None
         print(f"hloc: {len(added.names)} light field(s) -> {args.hloc}"
               + (f", centre views -> {args.hloc_images}" if args.hloc_images else ""))
         if added.replaced:

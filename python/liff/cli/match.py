@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 import numpy as np
@@ -39,7 +40,12 @@ def add_parser(sub) -> None:
     p.add_argument("--threshold", type=common.positive_float, default=3.0, help="RANSAC pixels (default 3)")
     p.add_argument("--hloc", default=None, metavar="MATCHES.h5",
                    help="also add the pair's ratio-test matches to this hloc matches file, "
-                        "under the names liff detect --hloc gives (A-NAME.png, B-NAME.png)")
+                        "under the names liff detect --hloc gives (A-NAME.png, B-NAME.png); "
+                        "needs --hloc-features")
+    p.add_argument("--hloc-features", default=None, metavar="FEATS.h5",
+                   help="with --hloc: the hloc features file the matches index (liff detect "
+                        "--hloc's); it must hold A's and B's features as they are now, else "
+                        "the match is refused as stale")
     common.add_reader_options(p)
     common.add_detector_options(p)
     p.set_defaults(run=run)
@@ -65,10 +71,42 @@ def features_of(path: str, options: dict, args: argparse.Namespace) -> Features:
     return features_from_light_field(detector, light_field)
 
 
+def check_hloc_options(args: argparse.Namespace) -> None:
+    """Before any reading: ``--hloc`` is a matches file (no input), with
+    ``--hloc-features``, a features file that holds both images' names, which differ.
+
+    Raises
+    ------
+    ValueError
+        Naming the flag and what was expected.
+    """
+    if args.hloc_features and not args.hloc:
+        raise ValueError("--hloc-features without --hloc; expected both (the matches file and "
+                         "the features file its matches index)")
+    if not args.hloc:
+        return
+    from ..hloc import features_in, check_pair_names, image_name
+
+    common.check_hloc_output(args.hloc, [args.a, args.b], "--hloc", "matches")
+    if not args.hloc_features:
+        raise ValueError("--hloc without --hloc-features; expected the hloc features file "
+                         "the matches index (the FEATS.h5 of liff detect --hloc), which liff "
+                         "checks holds the features matched now")
+    if os.path.abspath(args.hloc_features) == os.path.abspath(args.hloc):
+        raise ValueError(f"--hloc-features {args.hloc_features} is the --hloc file; expected "
+                         "two files, features and matches")
+    names = image_name(args.a), image_name(args.b)
+    check_pair_names(*names)
+    try:
+        features_in(args.hloc_features, names)
+    except ValueError as error:
+        raise ValueError(f"--hloc-features: {error}") from None
+
+
 def run(args: argparse.Namespace) -> int:
     if args.plot:
         refuse_inputs([args.plot], [args.a, args.b], "--plot")
-    common.check_hloc_output(args.hloc, [args.a, args.b], "--hloc")
+    check_hloc_options(args)
     options_a, options_b = common.input_options([args.a, args.b], args)
     fa, fb = features_of(args.a, options_a, args), features_of(args.b, options_b, args)
     matches = ratio_matches(fa.descriptors, fb.descriptors, args.ratio)
@@ -88,7 +126,8 @@ def run(args: argparse.Namespace) -> int:
         digests = tuple(content_digest(feature_file_group(f)[0]) for f in (fa, fb))
         with updated(args.hloc) as partial:
             write_matches(partial, image_name(args.a), image_name(args.b), matches,
-                          len(fa.keypoints), len(fb.keypoints), overwrite=True, digests=digests)
+                          len(fa.keypoints), len(fb.keypoints), overwrite=True, digests=digests,
+                          features=args.hloc_features)
         print(f"hloc: {len(matches)} matches of {image_name(args.a)} and {image_name(args.b)} "
               f"-> {args.hloc}")
     if args.plot:

@@ -3,6 +3,7 @@
 pycolmap is a test dependency (the ``test`` extra): these tests fail, not skip, without it.
 """
 
+import re
 import os
 from pathlib import Path
 
@@ -373,3 +374,36 @@ def test_left_out_images_are_named_with_their_reason(scene, reconstructed, tmp_p
     everything = dict(colmap.left_out_images(database, None))
     assert len(everything) == 6 and everything["blank.png"] == left_out["blank.png"]
     assert "but not registered" in everything["pose0.png"]
+
+
+def test_sfm_says_too_few_inliers_not_no_baseline(tmp_path, capsys, monkeypatch):
+    """Issue 29: three tiny poses match with a handful of inliers; the empty model is
+    for those, not for a missing baseline."""
+    import json
+
+    from liff.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["synth", "poses", "--out", "arc", "--views", "3", "--size", "64", "80", "--poses", "3",
+                 "--quiet"]) == 0
+    truth = json.load(open("arc.truth.json"))
+    k = truth["intrinsics"]
+    camera = ["--camera", str(k["focal"]), str(truth["baseline"]), str(k["cx"]), str(k["cy"]),
+              "--focus-distance", str(truth["focus_depth"])]
+    assert main(["sfm", "arc", "--workspace", "ws", *camera, "--quiet"]) == 1
+    error = capsys.readouterr().err
+    assert "no 3-D points" in error and "no baseline" not in error
+    found = re.search(r"fewer inlier matches than the 15 COLMAP triangulates from: "
+                      r"pose00.png-pose01.png \((\d+)\)", error)
+    assert found and int(found[1]) < 15
+
+
+def test_no_points_reason_names_the_pairs_below_colmaps_minimum():
+    from types import SimpleNamespace
+
+    from liff.cli.colmap import no_points_reason
+
+    poses = {("a", "b"): SimpleNamespace(inliers=7), ("a", "c"): None, ("b", "c"): SimpleNamespace(inliers=40)}
+    assert "a-b (7)" in no_points_reason(poses) and "b-c" not in no_points_reason(poses)
+    assert "no baseline" in no_points_reason({("a", "b"): SimpleNamespace(inliers=40)})
+    assert "no baseline" in no_points_reason(None)

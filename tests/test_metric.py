@@ -791,3 +791,25 @@ def test_colmap_steps_name_a_missing_database_and_a_wrong_model(tmp_path):
             call()
     with pytest.raises(ValueError, match="reconstruction is a NoneType; expected a pycolmap.Reconstruction"):
         colmap.metric_scale(None, {}, liff.LightFieldCamera(300.0, 0.04, (1.0, 1.0)))
+
+
+def test_cli_pose_warns_of_few_inliers_and_refuses_a_folder_out(tmp_path, capsys, monkeypatch):
+    """Issue 29: a pose from a handful of inliers is printed with exit 0 but warned of
+    (as liff match warns below 15); --out a folder is refused before detecting."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["synth", "poses", "--out", "arc", "--views", "3", "--size", "64", "80", "--poses", "3",
+                 "--quiet"]) == 0
+    truth = json.loads(Path("arc.truth.json").read_text())
+    k = truth["intrinsics"]
+    camera = ["--camera", str(k["focal"]), str(truth["baseline"]), str(k["cx"]), str(k["cy"]),
+              "--focus-distance", str(truth["focus_depth"])]
+    detected = []
+    real = liff.cli.pose.features_from_light_field
+    monkeypatch.setattr(liff.cli.pose, "features_from_light_field",
+                        lambda *args: detected.append(args) or real(*args))
+    assert main(["pose", "arc/pose00.npz", "arc/pose01.npz", *camera, "--out", "arc", "--overwrite"]) == 1
+    assert "--out arc is a folder; expected a JSON file path" in capsys.readouterr().err and not detected
+    assert main(["pose", "arc/pose00.npz", "arc/pose01.npz", *camera]) == 0
+    out, err = capsys.readouterr()
+    inliers = int(re.search(r"(\d+) inlier matches", out)[1])
+    assert inliers < 15 and f"warning: {inliers} inlier matches are too few" in err

@@ -8,6 +8,7 @@ import argparse
 import os
 import shutil
 import sys
+from typing import Optional
 
 import numpy as np
 
@@ -186,6 +187,23 @@ def scale_to_metres(result, images, camera, sparse: str, pair_poses=None, metric
             print(f"  model {index} scaled to metres: x {fit.scale:.6g} (from {from_slopes})")
 
 
+def no_points_reason(pair_poses: Optional[dict]) -> str:
+    """Why a model has no 3-D points: pairs of fewer inliers than COLMAP triangulates
+    from (:data:`liff.cli.match.MIN_INLIERS`, its two-view ``min_num_inliers``), named
+    with their counts, else poses without a baseline between them."""
+    from .match import MIN_INLIERS
+
+    few = {pair: pose.inliers for pair, pose in (pair_poses or {}).items()
+           if pose is not None and pose.inliers < MIN_INLIERS}
+    if few:
+        listed = ", ".join(f"{a}-{b} ({n})" for (a, b), n in list(few.items())[:5])
+        return (f"{len(few)} pair(s) have fewer inlier matches than the {MIN_INLIERS} COLMAP "
+                f"triangulates from: {listed}{', ...' if len(few) > 5 else ''}; expected more "
+                "overlap or texture between the poses (or check the camera)")
+    return ("the poses have no baseline between them (rotations about the centre view, or "
+            "the same light field twice)")
+
+
 #: scale_to_metres warns when the slopes' scale and the baselines' differ by more than this
 SHAPE_WARNING = 0.05
 #: and when the slopes' residuals have a larger robust sd than this, pixels per view step
@@ -261,8 +279,8 @@ def run_sfm(args: argparse.Namespace) -> int:
     print(f"reconstruction ({mapper} mapper): "
           + ("a model in " + sparse if result.success else "FAILED (no model)"))
     if result.success and result.best.num_points3D() == 0:
-        print("liff sfm: the model has no 3-D points: the poses have no baseline between them "
-              "(rotations about the centre view, or the same light field twice)", file=sys.stderr)
+        print(f"liff sfm: the model has no 3-D points: {no_points_reason(pair_poses)}",
+              file=sys.stderr)
         return 1
     if camera is not None and result.success:
         scale_to_metres(result, images, camera, sparse, pair_poses, metric_model=mapper == "poses")

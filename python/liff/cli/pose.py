@@ -6,6 +6,7 @@ import argparse
 import configparser
 import json
 import os
+import sys
 
 import numpy as np
 
@@ -13,7 +14,7 @@ from ..feature_file import Features, features_from_light_field, load_features
 from ..outputs import atomic_output, refuse_inputs
 from . import common
 from .calibration import add_camera_options, camera_from_args
-from .match import is_feature_file
+from .match import MIN_INLIERS, is_feature_file
 
 
 def add_parser(sub) -> None:
@@ -81,6 +82,9 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out:  # before anything is read or detected
         refuse_inputs([args.out], [args.a, args.b], "--out")
+        if os.path.isdir(args.out):
+            raise ValueError(f"--out {args.out} is a folder; expected a JSON file path (such as "
+                             f"{os.path.join(args.out, 'pose.json')}); nothing was written")
         if os.path.exists(args.out) and not args.overwrite:
             raise ValueError(f"{args.out}: exists; expected a new --out path (or --overwrite to "
                              "replace it); nothing was written")
@@ -107,6 +111,10 @@ def run(args: argparse.Namespace) -> int:
     print("t = " + np.array2string(t, precision=6, suppress_small=True) + f" m, |t| = "
           f"{np.linalg.norm(t):.6g} m; rotation {angle:.4f} deg")
     print("centre of B in A's frame: " + np.array2string(-R.T @ t, precision=6, suppress_small=True) + " m")
+    if len(matches) < MIN_INLIERS:
+        print(f"warning: {len(matches)} inlier matches are too few to trust this pose (expected "
+              f"at least {MIN_INLIERS}, as liff match and COLMAP's two-view verification)",
+              file=sys.stderr)
     if args.out:
         with atomic_output(args.out) as partial, open(partial, "w", encoding="utf-8") as f:
             json.dump({"R": R.tolist(), "t": t.tolist(), "inliers": len(matches),

@@ -492,3 +492,29 @@ def test_detect_refuses_names_hloc_cannot_hold_before_writing(arc, tmp_path, cap
                  "--hloc", str(tmp_path / "feats.h5")]) == 1
     assert "'my pose.png' holds whitespace" in capsys.readouterr().err
     assert not out.exists() and not (tmp_path / "feats.h5").exists()
+
+
+@pytest.mark.parametrize("size", [(128, 96, 1), (-128, 96), (128.5, 96), (0, 96), (np.nan, 96), 128])
+def test_write_features_checks_the_image_size(tmp_path, two_views, size):
+    _, (keypoints, descriptors) = two_views
+    with pytest.raises(ValueError, match=r"image_size .*; expected \(width, height\), two whole"):
+        write_features(tmp_path / "f.h5", "a.png", keypoints, descriptors, size)
+
+
+def test_write_features_checks_keypoints_and_names(tmp_path, two_views):
+    _, (keypoints, descriptors) = two_views
+    bad = list(keypoints)
+    bad[1] = cv2.KeyPoint(float("nan"), 3.0, 2.0)
+    with pytest.raises(ValueError, match="keypoint 1 at .*; expected finite"):
+        write_features(tmp_path / "f.h5", "a.png", bad, descriptors, (128, 96))
+    for name in ("q/", "a\\\\b.png"):
+        with pytest.raises(ValueError, match="expected a relative path with '/' between"):
+            write_features(tmp_path / "f.h5", name, keypoints, descriptors, (128, 96))
+    assert not (tmp_path / "f.h5").exists()
+
+
+def test_write_matches_checks_its_argument_types(tmp_path):
+    with pytest.raises(TypeError, match=r"matches holds \(0, 1, 0.5\); expected cv2.DMatch"):
+        write_matches(tmp_path / "m.h5", "a.png", "b.png", [(0, 1, 0.5)], 3, 3)
+    with pytest.raises(ValueError, match=r"digests \('x',\); expected two strings"):
+        write_matches(tmp_path / "m.h5", "a.png", "b.png", [], 3, 3, digests=("x",))

@@ -88,8 +88,10 @@ def _write_group(path, key: str, what: str, datasets: dict, overwrite: bool,
 def _check_name(name: str) -> str:
     """Raises ValueError unless ``name`` is a relative image path that hloc's files and
     its pairs.txt (read with ``str.split()``) hold as it is."""
-    if not isinstance(name, str) or not name or name.startswith("/") or "//" in name:
-        raise ValueError(f"image name {name!r}; expected a relative path such as 'scene/0001.png'")
+    if (not isinstance(name, str) or not name or name.startswith("/") or name.endswith("/")
+            or "//" in name or "\\" in name):
+        raise ValueError(f"image name {name!r}; expected a relative path with '/' between "
+                         "folders and a file name at the end, such as 'scene/0001.png'")
     if any(c.isspace() for c in name):
         raise ValueError(f"image name {name!r} holds whitespace; expected a name without spaces, "
                          "tabs or newlines (hloc reads pairs.txt split at whitespace)")
@@ -119,7 +121,8 @@ def feature_datasets(keypoints: Sequence[cv2.KeyPoint], descriptors: Optional[np
     Raises
     ------
     ValueError
-        For descriptors whose rows do not match the keypoints.
+        For descriptors whose rows do not match the keypoints, keypoints that are not
+        finite, or an image_size that is not two whole pixel counts > 0.
     """
     n = len(keypoints)
     if descriptors is None:
@@ -128,8 +131,20 @@ def feature_datasets(keypoints: Sequence[cv2.KeyPoint], descriptors: Optional[np
     if descriptors.ndim != 2 or descriptors.shape[0] != n:
         raise ValueError(f"descriptors of shape {descriptors.shape}; expected ({n}, D), one "
                          "row per keypoint")
-    width, height = (int(v) for v in image_size)
+    try:
+        size = np.asarray(image_size, np.float64)
+    except (TypeError, ValueError):
+        size = np.zeros(0)
+    if (size.shape != (2,) or not np.all(np.isfinite(size)) or np.any(size <= 0)
+            or np.any(size != np.round(size))):
+        raise ValueError(f"image_size {image_size!r}; expected (width, height), two whole "
+                         "pixel counts > 0")
+    width, height = (int(v) for v in size)
     colmap = keypoints_to_colmap(keypoints)  # (x + 0.5, y + 0.5, scale, orientation)
+    bad = np.flatnonzero(~np.isfinite(colmap).all(axis=1)) if n else []
+    if len(bad):
+        raise ValueError(f"keypoint {bad[0]} at {keypoints[bad[0]].pt} (size "
+                         f"{keypoints[bad[0]].size}); expected finite coordinates and sizes")
     return {
         "keypoints": (colmap[:, :2] - 0.5).astype(np.float32),
         "scores": np.array([k.response for k in keypoints], np.float32),
@@ -381,6 +396,9 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
     matches0 = np.full(counts[0], -1, np.int32)
     distances = np.zeros(counts[0], np.float64)
     for m in matches:
+        if not isinstance(m, cv2.DMatch):
+            raise TypeError(f"matches holds {m!r}; expected cv2.DMatch objects (queryIdx, "
+                            "trainIdx, distance)")
         if not 0 <= m.queryIdx < counts[0]:
             raise ValueError(f"match queryIdx {m.queryIdx}; expected in [0, {counts[0]}), a "
                              f"keypoint of {name0!r}")

@@ -56,6 +56,18 @@ def test_liff_pose_with_the_camera_file_equals_the_camera_by_hand(poses, capsys)
     assert capsys.readouterr().out == from_file and "|t| = " in from_file
 
 
+def test_pose_out_never_replaces_the_camera_file_it_reads(poses, tmp_path, capsys):
+    """--out is an output: the camera file is an input like the light fields, refused as
+    --out even with --overwrite, before anything is read or detected."""
+    camera = tmp_path / "cam.json"
+    camera.write_text((poses.parent / (poses.name + ".truth.json")).read_text())
+    before = camera.read_text()
+    pair = [str(poses / "pose00.npz"), str(poses / "pose01.npz")]
+    assert main(["pose", *pair, "--camera-file", str(camera), "--out", str(camera),
+                 "--overwrite"]) == 1
+    assert "--out" in capsys.readouterr().err and camera.read_text() == before
+
+
 @pytest.mark.parametrize("drop, named", [("baseline", "baseline"), ("focus_depth", "focus_depth"),
                                          ("intrinsics.cx", "intrinsics.cx")])
 def test_a_truth_file_missing_a_field_is_refused_naming_it(poses, tmp_path, drop, named):

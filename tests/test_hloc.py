@@ -518,3 +518,49 @@ def test_write_matches_checks_its_argument_types(tmp_path):
         write_matches(tmp_path / "m.h5", "a.png", "b.png", [(0, 1, 0.5)], 3, 3)
     with pytest.raises(ValueError, match=r"digests \('x',\); expected two strings"):
         write_matches(tmp_path / "m.h5", "a.png", "b.png", [], 3, 3, digests=("x",))
+
+
+# --- third break test (issue 29): a pair that does not involve the images matched now --
+
+def test_match_refuses_a_matches_file_holding_any_stale_pair(arc, tmp_path):
+    """Matching pose02 with pose00 into a matches file whose pose00/pose01 pair was made
+    against features of pose01 that the features file no longer holds is refused: that
+    file would index keypoints that are not there, whichever pair is added."""
+    import shutil
+
+    from liff.cli import main
+
+    feats, matches = tmp_path / "feats.h5", tmp_path / "matches.h5"
+    shutil.copy(arc / "feats.h5", feats)
+    shutil.copy(arc / "matches.h5", matches)  # holds pose00.png/pose01.png
+    redone = tmp_path / "redone" / "pose01.npz"  # pose01 with other settings, re-exported
+    assert main(["detect", str(arc / "arc" / "pose01.npz"), "--out", str(redone),
+                 "--contrast-threshold", "0.08", "--hloc", str(feats), "--overwrite",
+                 "--quiet"]) == 0
+    before = snapshot(matches)
+    f0, f2 = (str(arc / "f" / f"pose0{i}.npz") for i in (0, 2))
+    with h5py.File(feats, "r") as f:
+        counts = [len(f[name]["keypoints"]) for name in ("pose02.png", "pose00.png")]
+    with pytest.raises(ValueError, match=r"pose00.png/pose01.png \(pose01.png changed\)"):
+        write_matches(matches, "pose02.png", "pose00.png", [], *counts, features=feats)
+    assert main(["match", f2, f0, "--hloc", str(matches), "--hloc-features", str(feats)]) == 1
+    assert snapshot(matches) == before
+    # Into a new matches file the same pair is fine.
+    assert main(["match", f2, f0, "--hloc", str(tmp_path / "new.h5"), "--hloc-features",
+                 str(feats)]) == 0
+
+
+@pytest.mark.parametrize("kind", ["npz", "text", "folder"])
+def test_a_features_file_that_is_no_hdf5_file_is_refused_clearly(arc, tmp_path, capsys, kind):
+    from liff.cli import main
+
+    wrong = {"npz": arc / "f" / "pose01.npz", "folder": arc / "f",
+             "text": tmp_path / "notes.txt"}[kind]
+    if kind == "text":
+        wrong.write_text("not hdf5")
+    f0, f1 = (str(arc / "f" / f"pose0{i}.npz") for i in (0, 1))
+    assert main(["match", f0, f1, "--hloc", str(tmp_path / "m.h5"), "--hloc-features",
+                 str(wrong)]) == 1
+    err = capsys.readouterr().err
+    assert ("is a folder" if kind == "folder" else "is not an HDF5 file") in err
+    assert "Unable to" not in err and not (tmp_path / "m.h5").exists()

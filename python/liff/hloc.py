@@ -292,6 +292,10 @@ def features_in(path, names: Sequence[str]) -> List[Tuple[str, int]]:
     if not os.path.exists(path):
         raise ValueError(f"features file {os.fspath(path)} does not exist; expected the hloc "
                          "features file the matches index (liff detect --hloc writes it)")
+    if os.path.isdir(path) or not h5py.is_hdf5(path):
+        raise ValueError(f"features file {os.fspath(path)} is "
+                         f"{'a folder' if os.path.isdir(path) else 'not an HDF5 file'}; expected "
+                         "the hloc features file the matches index (liff detect --hloc writes it)")
     check_file_kind(path, "features")
     with h5py.File(path, "r") as f:
         groups = [f.get(name) for name in names]
@@ -393,6 +397,8 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
     check_file_kind(path, "matches")
     if features is not None:
         digests = _check_features(features, (name0, name1), digests, counts)
+        _refuse_pairs_stale_against(path, features, {names_to_pair(name0, name1),
+                                                     names_to_pair(name1, name0)})
     matches0 = np.full(counts[0], -1, np.int32)
     distances = np.zeros(counts[0], np.float64)
     for m in matches:
@@ -485,6 +491,44 @@ def _refuse_stale_pairs(path, digests: dict, replaced: set) -> None:
                          "were replaced since, so their indices are stale); expected a matches "
                          "file made against the current features: match into a new file, or "
                          "remove that one and match every pair again")
+
+
+def _refuse_pairs_stale_against(path, features, replaced: set) -> None:
+    """Raises ValueError if the matches file ``path`` holds a pair (other than the groups
+    ``replaced``) made against features that the features file ``features`` no longer
+    holds: each pair's recorded digests against the file's, whichever images the pair
+    joins (a re-detection of one image leaves every pair of it stale)."""
+    if not os.path.exists(path):
+        return
+    import h5py
+
+    recorded = []  # (pair, image name, digest it was matched against)
+    with h5py.File(path, "r") as f:
+        for group in _pair_groups(f):
+            pair = group.name.lstrip("/")
+            if pair in replaced:
+                continue
+            for name_attr, digest_attr in zip(PAIR_NAME_ATTRS, PAIR_DIGEST_ATTRS):
+                if name_attr in group.attrs and digest_attr in group.attrs:
+                    recorded.append((pair, str(group.attrs[name_attr]),
+                                     str(group.attrs[digest_attr])))
+    if not recorded:
+        return
+    current = {}
+    with h5py.File(features, "r") as f:
+        for _, name, _ in recorded:
+            group = f.get(name)
+            if name not in current:
+                current[name] = (_group_digest(group) if isinstance(group, h5py.Group)
+                                 and "keypoints" in group else None)
+    stale = sorted({f"{pair} ({name} changed)" for pair, name, digest in recorded
+                    if current[name] != digest})
+    if stale:
+        raise ValueError(f"{os.fspath(path)}: its pairs {', '.join(stale)} were matched against "
+                         f"features that {os.fspath(features)} no longer holds (they were "
+                         "replaced since, so their indices are stale); expected a matches file "
+                         "made against the current features: match into a new file, or remove "
+                         "that one and match every pair again")
 
 
 def image_name(feature_path: "os.PathLike") -> str:

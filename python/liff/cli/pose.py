@@ -81,7 +81,11 @@ def run(args: argparse.Namespace) -> int:
     from ..pose import estimate_relative_pose
 
     if args.out:  # before anything is read or detected
-        refuse_inputs([args.out], [args.a, args.b], "--out")
+        # The calibration files are inputs too: --out must not replace the camera it reads.
+        calibration = [path for path in (getattr(args, "camera_file", None),
+                                         getattr(args, "hci", None),
+                                         getattr(args, "lftoolbox", None)) if path]
+        refuse_inputs([args.out], [args.a, args.b] + calibration, "--out")
         if os.path.isdir(args.out):
             raise ValueError(f"--out {args.out} is a folder; expected a JSON file path (such as "
                              f"{os.path.join(args.out, 'pose.json')}); nothing was written")

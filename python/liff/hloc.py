@@ -397,8 +397,6 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
     check_file_kind(path, "matches")
     if features is not None:
         digests = _check_features(features, (name0, name1), digests, counts)
-        _refuse_pairs_stale_against(path, features, {names_to_pair(name0, name1),
-                                                     names_to_pair(name1, name0)})
     matches0 = np.full(counts[0], -1, np.int32)
     distances = np.zeros(counts[0], np.float64)
     for m in matches:
@@ -424,7 +422,8 @@ def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence
     attrs = {}
     if digests is not None:
         attrs = dict(zip(PAIR_NAME_ATTRS + PAIR_DIGEST_ATTRS, (name0, name1) + tuple(digests)))
-        _refuse_stale_pairs(path, {name0: digests[0], name1: digests[1]}, {key, reverse})
+        _refuse_stale_pairs(path, {name0: digests[0], name1: digests[1]}, {key, reverse},
+                            features)
     _write_group(path, key, "the pair", {"matches0": matches0, "matching_scores0": scores0},
                  overwrite, attrs, aliases=(reverse,))
 
@@ -469,35 +468,12 @@ def _pair_groups(f) -> Iterator:
                 yield group
 
 
-def _refuse_stale_pairs(path, digests: dict, replaced: set) -> None:
-    """Raises ValueError if the matches file ``path`` holds a pair (other than the
-    groups ``replaced``) of an image of ``digests`` made against other features."""
-    if not os.path.exists(path):
-        return
-    import h5py
-
-    stale = []
-    with h5py.File(path, "r") as f:
-        for group in _pair_groups(f):
-            if group.name.lstrip("/") in replaced:
-                continue
-            for name_attr, digest_attr in zip(PAIR_NAME_ATTRS, PAIR_DIGEST_ATTRS):
-                name = group.attrs.get(name_attr)
-                if name in digests and group.attrs.get(digest_attr) != digests[name]:
-                    stale.append(f"{group.name.lstrip('/')} ({name} changed)")
-    if stale:
-        raise ValueError(f"{os.fspath(path)}: its pairs {', '.join(sorted(set(stale)))} were "
-                         "matched against other features than those given now (the features "
-                         "were replaced since, so their indices are stale); expected a matches "
-                         "file made against the current features: match into a new file, or "
-                         "remove that one and match every pair again")
-
-
-def _refuse_pairs_stale_against(path, features, replaced: set) -> None:
+def _refuse_stale_pairs(path, digests: dict, replaced: set, features=None) -> None:
     """Raises ValueError if the matches file ``path`` holds a pair (other than the groups
-    ``replaced``) made against features that the features file ``features`` no longer
-    holds: each pair's recorded digests against the file's, whichever images the pair
-    joins (a re-detection of one image leaves every pair of it stale)."""
+    ``replaced``) matched against other features than the current ones: those of
+    ``digests`` (name -> digest) and, with the features file ``features``, those it holds
+    of every image a recorded pair joins (a re-detection of one image leaves every pair
+    of it stale, whichever pair is added now)."""
     if not os.path.exists(path):
         return
     import h5py
@@ -512,22 +488,21 @@ def _refuse_pairs_stale_against(path, features, replaced: set) -> None:
                 if name_attr in group.attrs and digest_attr in group.attrs:
                     recorded.append((pair, str(group.attrs[name_attr]),
                                      str(group.attrs[digest_attr])))
-    if not recorded:
-        return
-    current = {}
-    with h5py.File(features, "r") as f:
-        for _, name, _ in recorded:
-            group = f.get(name)
-            if name not in current:
-                current[name] = (_group_digest(group) if isinstance(group, h5py.Group)
-                                 and "keypoints" in group else None)
+    current = dict(digests)
+    if features is not None and recorded:
+        with h5py.File(features, "r") as f:
+            for _, name, _ in recorded:
+                if name not in current:
+                    group = f.get(name)
+                    current[name] = (_group_digest(group) if isinstance(group, h5py.Group)
+                                     and "keypoints" in group else None)
     stale = sorted({f"{pair} ({name} changed)" for pair, name, digest in recorded
-                    if current[name] != digest})
+                    if name in current and current[name] != digest})
     if stale:
         raise ValueError(f"{os.fspath(path)}: its pairs {', '.join(stale)} were matched against "
-                         f"features that {os.fspath(features)} no longer holds (they were "
-                         "replaced since, so their indices are stale); expected a matches file "
-                         "made against the current features: match into a new file, or remove "
+                         "other features than the current ones (the features were replaced "
+                         "since, so their indices are stale); expected a matches file made "
+                         "against the current features: match into a new file, or remove "
                          "that one and match every pair again")
 
 

@@ -362,3 +362,13 @@ def test_readme_states_create_with_the_tables_defaults():
     assert match, "README has no `liff.LiFF.create(...)` signature"
     written = [part.split("=")[0].strip() for part in " ".join(match.group(1).split()).split(",")]
     assert written == [p.name for p in liff.PARAMETERS]
+
+
+@pytest.mark.parametrize("given, error, words", [
+    ("scene.npy", ValueError, "liff.io.read_light_field"),
+    ([np.zeros((32, 32), np.float32), "x"], ValueError, "expected an array"),
+    ([[0.0, 1.0], [2.0]], ValueError, "expected an array"),
+])
+def test_a_path_or_a_ragged_list_is_refused_naming_what_was_expected(given, error, words):
+    with pytest.raises(error, match=words):
+        liff.LiFF.create().detect(given)

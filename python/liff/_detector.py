@@ -88,10 +88,19 @@ def _as_light_field(lf) -> np.ndarray:
     if lf is None:
         raise TypeError("light field is None; expected an array (T, S, V, U[, C]) or one "
                         "view (V, U[, C]) (did a read fail? cv2.imread returns None)")
+    if isinstance(lf, (str, bytes, os.PathLike)):
+        raise ValueError(f"light field is a {type(lf).__name__} ({lf!r}), not an array of a "
+                         "numeric dtype; expected an array of uint8, uint16, float32 or float64 "
+                         "(a file is read with liff.io.read_light_field(path).light_field)")
     if not isinstance(lf, np.ndarray):
         if hasattr(lf, "get") and callable(lf.get):  # cv2.UMat
             lf = lf.get()
-        lf = np.asarray(lf)
+        try:
+            lf = np.asarray(lf)
+        except ValueError as error:  # nested sequences of differing shapes
+            raise ValueError(f"light field is a {type(lf).__name__} that is no array ({error}); "
+                             "expected an array (T, S, V, U[, C]) or one view (V, U[, C]), or "
+                             "a list of such arrays (one input each)") from None
     if lf.dtype.kind == "b":
         raise ValueError("light field dtype is bool; expected uint8, uint16, float32 or float64")
     lf = as_read_in_place(lf)

@@ -49,8 +49,11 @@ constexpr int kVectors = 4;
 // are one padded row at offsets -r..r). Every x adds in the same order, in the vector
 // body and the scalar tail alike, and without fused multiply-adds, so a result does
 // not depend on where a pixel falls, on the split into stripes, or on the CPU.
+// With `dog`, also dog[x] = out[x] - before[x] (the DoG of two consecutive Gaussians),
+// from the sum still in a register: a separate pass would load `out` again.
 LIFF_FMA_LOOP void symmetricTaps(const float* const* rows, const float* taps, int radius,
-                                 int width, float* out) {
+                                 int width, float* out, const float* before = nullptr,
+                                 float* dog = nullptr) {
   int x = 0;
   const float* centre = rows[radius];
 #ifdef LIFF_VEC8
@@ -66,18 +69,23 @@ LIFF_FMA_LOOP void symmetricTaps(const float* const* rows, const float* taps, in
         acc[v] += k * (load(a + v * kLanes) + load(b + v * kLanes));
     }
     for (int v = 0; v < kVectors; ++v) store(out + x + v * kLanes, acc[v]);
+    if (dog)
+      for (int v = 0; v < kVectors; ++v)
+        store(dog + x + v * kLanes, acc[v] - load(before + x + v * kLanes));
   }
   for (; x + kLanes <= width; x += kLanes) {
     Vec8 acc = k0 * load(centre + x);
     for (int i = 1; i <= radius; ++i)
       acc += taps[i] * (load(rows[radius - i] + x) + load(rows[radius + i] + x));
     store(out + x, acc);
+    if (dog) store(dog + x, acc - load(before + x));
   }
 #endif
   for (; x < width; ++x) {
     float acc = taps[0] * centre[x];
     for (int i = 1; i <= radius; ++i) acc += taps[i] * (rows[radius - i][x] + rows[radius + i][x]);
     out[x] = acc;
+    if (dog) dog[x] = acc - before[x];
   }
 }
 
@@ -129,11 +137,6 @@ LIFF_FMA_LOOP void symmetricTapsTwoRows(const float* const* rows, const float* t
   }
 }
 
-// dog[x] = now[x] - before[x].
-LIFF_HOT_LOOP void difference(const float* now, const float* before, int width, float* dog) {
-  for (int x = 0; x < width; ++x) dog[x] = now[x] - before[x];
-}
-
 void gaussianBlurRows(const cv::Mat& src, cv::Mat& dst, const GaussianTaps& kx,
                       const GaussianTaps& ky, int rowBegin, int rowEnd, cv::Mat* dog) {
   CV_Assert(src.type() == CV_32F && dst.type() == CV_32F && dst.size() == src.size());
@@ -161,9 +164,8 @@ void gaussianBlurRows(const cv::Mat& src, cv::Mat& dst, const GaussianTaps& kx,
                                                                        cv::BORDER_REFLECT_101)];
     }
     for (int j = -rx; j <= rx; ++j) shifted[j + rx] = middle[m] + j;
-    float* out = dst.ptr<float>(y);
-    symmetricTaps(shifted.data(), kx.taps.data(), rx, width, out);
-    if (dog) difference(out, src.ptr<float>(y), width, dog->ptr<float>(y));
+    symmetricTaps(shifted.data(), kx.taps.data(), rx, width, dst.ptr<float>(y),
+                  src.ptr<float>(y), dog ? dog->ptr<float>(y) : nullptr);
   };
   for (int y = rowBegin; y < rowEnd;) {
     const int count = std::min(2, rowEnd - y);

@@ -110,20 +110,20 @@ def profile(detector, lf, batch: int, repeats: int = 3):
     on a shared machine another process preempting a task makes it look long, which
     would make its loop look unbalanced)."""
     liff.setNumThreads(1)
-    core._set_slice_batch(batch)
+    core._hooks.set_slice_batch(batch)
     runs = []
     try:
         detector.detectAndCompute(lf, None)  # warm: working memory, caches
         for _ in range(repeats):
-            core._set_profiling(True)
-            core._reset_profile()
+            core._hooks.set_profiling(True)
+            core._hooks.reset_profile()
             wall = seconds(lambda: detector.detectAndCompute(lf, None))
-            runs.append((wall, core._stage_seconds(), core._stage_seconds(True),
-                         core._parallel_loops()))
-            core._set_profiling(False)
+            runs.append((wall, core._hooks.stage_seconds(), core._hooks.stage_seconds(True),
+                         core._hooks.parallel_loops()))
+            core._hooks.set_profiling(False)
     finally:
-        core._set_profiling(False)
-        core._set_slice_batch(0)
+        core._hooks.set_profiling(False)
+        core._hooks.set_slice_batch(0)
     if len({tuple((n, len(t)) for n, _, t in r[3]) for r in runs}) != 1:
         raise RuntimeError("profiled calls ran different loops")
     loops = [(name, [min(r[3][i][2][j] for r in runs) for j in range(len(tasks))])
@@ -281,9 +281,9 @@ def main(argv=None) -> int:
         t2 = interleaved(rounds, one=threads(1), two=threads(2))
         print(f"two threads against one: {median_ratio(t2['one'], t2['two']):.2f}x "
               f"(medians {statistics.median(t2['one']):.3f} and {statistics.median(t2['two']):.3f} s)")
-        if hasattr(core, "_parallel_loops"):
+        if hasattr(core, "_hooks"):
             stage_model(default, lf)
-        else:  # a core from before the loop profiler: its stages only
+        else:  # a core from before the loop profiler: its stages only, hooks by their old names
             liff.setNumThreads(1)
             core._set_profiling(True)
             core._reset_profile()

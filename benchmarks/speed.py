@@ -114,13 +114,13 @@ def main(argv=None) -> int:
           f"{', '.join(f'{r:.1f}' for r in repeated_ratios)}; all views / median LiFF = "
           f"{repeated_time / liff_time:.1f})")
 
-    core._set_profiling(True)
-    core._reset_profile()
+    core._hooks.set_profiling(True)
+    core._hooks.reset_profile()
     start = time.perf_counter()
     detector.detectAndCompute(lf, None)
     wall = time.perf_counter() - start
-    stages = core._stage_seconds()
-    core._set_profiling(False)
+    stages = core._hooks.stage_seconds()
+    core._hooks.set_profiling(False)
     total = sum(stages.values())
     print(f"\nper-stage breakdown of one detectAndCompute (wall {wall:.3f} s), in thread-seconds "
           f"(summed over threads; {total:.3f} s in all):")

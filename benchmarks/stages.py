@@ -38,12 +38,12 @@ def main(argv=None) -> int:
         start = time.perf_counter()
         detector.detectAndCompute(lf, None)
         walls.append(time.perf_counter() - start)
-    core._set_profiling(True)
-    core._reset_profile()
+    core._hooks.set_profiling(True)
+    core._hooks.reset_profile()
     for _ in range(args.calls):
         detector.detectAndCompute(lf, None)
-    stages = core._stage_seconds()
-    core._set_profiling(False)
+    stages = core._hooks.stage_seconds()
+    core._hooks.set_profiling(False)
     print(f"{len(keypoints)} keypoints; wall median {np.median(walls):.3f} s "
           f"(min {min(walls):.3f}) over {args.calls} calls on {args.threads} threads")
     print("thread-seconds per call: " + ", ".join(

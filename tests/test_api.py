@@ -324,17 +324,22 @@ def test_stubs_match_the_compiled_module():
     from pathlib import Path
 
     stub = ast.parse((Path(liff.__file__).parent / "_core.pyi").read_text())
-    module_names, class_names = set(), set()
+    module_names, class_names, report_names = set(), set(), set()
     for node in stub.body:
         if isinstance(node, ast.FunctionDef):
             module_names.add(node.name)
         elif isinstance(node, ast.AnnAssign):
             module_names.add(node.target.id)
-        elif isinstance(node, ast.ClassDef) and node.name == "LiFF":
-            module_names.add("LiFF")
-            class_names = {n.name for n in node.body if isinstance(n, ast.FunctionDef)}
+        elif isinstance(node, ast.ClassDef):
+            module_names.add(node.name)
+            if node.name == "LiFF":
+                class_names = {n.name for n in node.body if isinstance(n, ast.FunctionDef)}
+            elif node.name == "SlopeRangeReport":
+                report_names = {n.target.id for n in node.body if isinstance(n, ast.AnnAssign)}
     core = liff._core
     assert module_names == {n for n in dir(core) if not n.startswith("__")}
+    assert report_names == {n for n in vars(core.SlopeRangeReport) if not n.startswith("__")
+                            and "pybind11" not in n}
     # (pybind11's own _pybind11_conduit_v1_ is not ours to stub)
     assert class_names - {"__init__"} == {n for n in vars(core.LiFF)
                                           if not n.startswith("__") and "pybind11" not in n}

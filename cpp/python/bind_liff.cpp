@@ -4,14 +4,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <liff/hooks.hpp>
 #include <liff/liff.hpp>
 #include <string>
 
 #include "arrays.hpp"
 #include "bindings.hpp"
-#include "light_field.hpp"
 #include "parameter_values.hpp"
-#include "slope_range.hpp"
 
 namespace liff {
 namespace python {
@@ -111,6 +110,39 @@ void bindPersistence(py::class_<PyLiFF>& cls) {
 }  // namespace
 
 void BindLiFF(py::module_& m) {
+  py::class_<SlopeRangeReport>(m, "SlopeRangeReport",
+                               "What a detector's last completed call found out about its slope "
+                               "range (LiFF.getSlopeRangeReport; liff/liff.hpp). Slopes in pixels "
+                               "per view step.")
+      .def_readonly("slicesUsed", &SlopeRangeReport::slicesUsed,
+                    "Slopes of every focal slice built, increasing (list of float).")
+      .def_readonly("searchedSlopes", &SlopeRangeReport::searchedSlopes,
+                    "Slopes of the slices searched for extrema (list of float).")
+      .def_readonly("T", &SlopeRangeReport::T, "View rows of the light field.")
+      .def_readonly("S", &SlopeRangeReport::S, "View columns.")
+      .def_readonly("V", &SlopeRangeReport::V, "Pixel rows of a view.")
+      .def_readonly("U", &SlopeRangeReport::U, "Pixel columns of a view.")
+      .def_readonly("automaticRange", &SlopeRangeReport::automaticRange,
+                    "Whether firstSlope = -inf and lastSlope = +inf.")
+      .def_readonly("automaticReach", &SlopeRangeReport::automaticReach,
+                    "Largest |slope| the automatic range considers, min(V, U) / (4 (max(T, S) "
+                    "- 1)); NaN with a hand-set range or no survey (one or two views along the "
+                    "longer axis).")
+      .def_readonly("surveyFoundNothing", &SlopeRangeReport::surveyFoundNothing,
+                    "The automatic range's survey found no structure: [-1, 1] was searched.")
+      .def_readonly("featuresFound", &SlopeRangeReport::featuresFound,
+                    "Features before nfeatures' cut.")
+      .def_readonly("featuresReturned", &SlopeRangeReport::featuresReturned,
+                    "Features returned.")
+      .def_readonly("featuresAtFirstSlope", &SlopeRangeReport::featuresAtFirstSlope,
+                    "Returned features at a hand-set (finite) firstSlope's slice.")
+      .def_readonly("featuresAtLastSlope", &SlopeRangeReport::featuresAtLastSlope,
+                    "Returned features at a hand-set (finite) lastSlope's slice.")
+      .def_readonly("endsSurveyed", &SlopeRangeReport::endsSurveyed,
+                    "Whether more than RANGE_END_SHARE of the features sat at hand-set ends, "
+                    "so the survey ran to find structure beyond them.")
+      .def_readonly("surveyedSlopes", &SlopeRangeReport::surveyedSlopes,
+                    "Slopes of the features that survey kept (list of float).");
   py::class_<PyLiFF> cls(m, "LiFF", R"doc(
 LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 types).
 )doc");
@@ -134,24 +166,10 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
       },
       "lf"_a, "The focal-stack slopes detection would use for this light field.");
   cls.def(
-      "_survey",
-      [](PyLiFF& s, const py::array& lf) {
-        const cv::Mat image = lightFieldMat(lf);
-        Parameters p = s.impl->getParameters();
-        py::gil_scoped_release release;
-        detail::LightField field = detail::checkLightField(image);
-        detail::convertLightField(image, field);
-        return detail::surveySlopes(field, p, -HUGE_VAL, HUGE_VAL, std::max(1, cv::getNumThreads()))
-            .slopes;
-      },
-      "lf"_a,
-      "The slopes (px per view step) of the features the automatic range's survey keeps for "
-      "this light field, whatever this detector's own range (docs/SLOPES.md).");
-  cls.def(
-      "_survey_found_nothing",
-      [](const PyLiFF& s) { return detail::lastSurveyFoundNothing(*s.impl); },
-      "Whether the last call's automatic range found no structure in its survey and "
-      "searched the paper's [-1, 1] (docs/SLOPES.md).");
+      "getSlopeRangeReport", [](const PyLiFF& s) { return s.impl->getSlopeRangeReport(); },
+      "What the last completed call found out about its slope range (SlopeRangeReport: "
+      "slices, automatic reach, survey outcome, features at hand-set ends and the survey's "
+      "slopes beyond them); docs/SLOPES.md.");
   cls.def(
       "getSlicesUsed", [](const PyLiFF& s) { return s.impl->getSlicesUsed(); },
       "Slopes of every focal slice the last call built, increasing (list of float).");
@@ -176,15 +194,17 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
       "descriptors"_a = true,
       "Core call: returns (keypoint rows (N, 7) float64, descriptors or None). Releases the GIL.");
   bindPersistence(cls);
-  m.def(
-      "_automatic_reach",
-      [](int T, int S, int V, int U) {
-        return detail::surveyed(T, S) ? detail::largestSlope(T, S, V, U) : std::nan("");
+  py::module_ hooks = m.def_submodule("_hooks");
+  hooks.def(
+      "survey",
+      [](const PyLiFF& s, const py::array& lf) {
+        const cv::Mat image = lightFieldMat(lf);
+        py::gil_scoped_release release;
+        return hooks::surveySlopes(*s.impl, image);
       },
-      "T"_a, "S"_a, "V"_a, "U"_a,
-      "Largest |slope| (px per view step) the automatic range considers for T x S views of "
-      "V x U pixels, min(V, U) / (4 (max(T, S) - 1)); NaN where it runs no survey (one or "
-      "two views along the longer axis).");
+      "detector"_a, "lf"_a,
+      "The slopes (px per view step) of the features the automatic range's survey keeps for "
+      "`lf` with `detector`'s parameters, whatever its own range (docs/SLOPES.md).");
 }
 
 }  // namespace python

@@ -1,14 +1,14 @@
-// What the core runs on: its threads, the OpenCV it was built against, and the
-// stage timers benchmarks read.
+// What the core runs on: its threads, the OpenCV it was built against, its working
+// memory; and the private submodule _hooks (liff/hooks.hpp) of liff's tests and benchmarks.
 #include <opencv2/core.hpp>
 #include <string>
 
 #include <pybind11/stl.h>
 
+#include <liff/hooks.hpp>
 #include <liff/liff.hpp>
 
 #include "bindings.hpp"
-#include "profile.hpp"
 
 namespace liff {
 namespace python {
@@ -51,36 +51,38 @@ void BindVersion(py::module_& m) {
       "Version of the system OpenCV the core was built against.");
 }
 
-void BindProfiling(py::module_& m) {
-  m.def("_set_profiling", &detail::setProfiling, "enabled"_a,
-        "Benchmarks only: turn per-stage timing on or off (off by default).");
-  m.def("_reset_profile", &detail::resetProfile, "Benchmarks only: zero the stage timers.");
-  m.def(
-      "_stage_seconds",
+void BindHooks(py::module_& m) {
+  py::module_ hooks = m.def_submodule(
+      "_hooks", "liff's own test and benchmark hooks (liff/hooks.hpp): not API, may change.");
+  hooks.def("set_profiling", &hooks::setProfiling, "enabled"_a,
+            "Turns per-stage timing on or off (off by default).");
+  hooks.def("reset_profile", &hooks::resetProfile,
+            "Zeroes the stage timers and forgets the parallel loops recorded.");
+  hooks.def(
+      "stage_seconds",
       [](bool inLoops) {
-        const auto s = detail::stageSeconds(inLoops);
+        const std::vector<std::string> names = hooks::stageNames();
+        const std::vector<double> seconds = hooks::stageSeconds(inLoops);
         py::dict d;
-        const char* names[] = {"focal_stack", "scale_space", "extrema", "refinement",
-                               "descriptors"};
-        for (int i = 0; i < detail::kStageCount; ++i) d[names[i]] = s[i];
+        for (size_t i = 0; i < names.size(); ++i) d[names[i].c_str()] = seconds[i];
         return d;
       },
       "in_loops"_a = false,
-      "Benchmarks only: seconds per stage, summed over threads, since the last reset\n"
-      "(with in_loops, only the part inside profiled parallel loops).");
-  m.def("_set_slice_batch", &detail::setSliceBatchOverride, "batch"_a,
-        "Benchmarks only: build `batch` slices at once whatever the thread count (0: one\n"
-        "per thread, the default), to profile on one thread the loops of a `batch`-thread call.");
-  m.def(
-      "_parallel_loops",
+      "Seconds per stage (dict), summed over threads, since the last reset (with in_loops,\n"
+      "only the part inside profiled parallel loops).");
+  hooks.def("set_slice_batch", &hooks::setSliceBatch, "batch"_a,
+            "Builds `batch` slices at once whatever the thread count (0: one per thread, the\n"
+            "default), to profile on one thread the loops of a `batch`-thread call.");
+  hooks.def(
+      "parallel_loops",
       [] {
         py::list loops;
-        for (const detail::LoopRecord& loop : detail::loopRecords())
+        for (const hooks::ParallelLoop& loop : hooks::parallelLoops())
           loops.append(py::make_tuple(loop.name, loop.wall, loop.tasks));
         return loops;
       },
-      "Benchmarks only: (name, wall seconds, [seconds of each task]) of every outermost parallel\n"
-      "loop since the last reset, in call order (each index a task while profiling).");
+      "(name, wall seconds, [seconds of each task]) of every outermost parallel loop since\n"
+      "the last reset, in call order (each index a task while profiling).");
 }
 
 }  // namespace python

@@ -13,7 +13,7 @@ void BindLiFF(py::module_& m);        // the detector
 void BindThreads(py::module_& m);     // setNumThreads, getNumThreads
 void BindVersion(py::module_& m);     // opencvVersion
 void BindAllocation(py::module_& m);  // releaseWorkingMemory, keptWorkingMemoryBytes, ...
-void BindProfiling(py::module_& m);   // stage timers, for benchmarks
+void BindHooks(py::module_& m);       // _hooks: stage timers and survey, for tests and benchmarks
 
 }  // namespace python
 }  // namespace liff

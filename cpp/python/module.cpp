@@ -7,6 +7,7 @@
 PYBIND11_MODULE(_core, m) {
   m.doc() = "Compiled core of liff (C++17, linked to the system OpenCV).";
   m.attr("SLOPE_SCALE") = liff::kSlopeScale;
+  m.attr("RANGE_END_SHARE") = liff::kRangeEndShare;
 
   // Argument errors from the core become ValueError, a light field too large for the
   // memory limit MemoryError; anything else RuntimeError.
@@ -30,5 +31,5 @@ PYBIND11_MODULE(_core, m) {
   liff::python::BindThreads(m);
   liff::python::BindVersion(m);
   liff::python::BindAllocation(m);
-  liff::python::BindProfiling(m);
+  liff::python::BindHooks(m);
 }

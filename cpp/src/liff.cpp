@@ -130,17 +130,13 @@ class LiFF_Impl : public LiFF {
     return detail::uniformPlan(parameters_, T, S).slopes;
   }
   std::vector<double> slopesFor(cv::InputArray lightField) override;
-  std::vector<double> getSlicesUsed() const override {
-    std::lock_guard<std::mutex> lock(lastMutex_);
-    return lastSlices_;
-  }
+  std::vector<double> getSlicesUsed() const override { return getSlopeRangeReport().slicesUsed; }
   std::vector<double> getSearchedSlopes() const override {
-    std::lock_guard<std::mutex> lock(lastMutex_);
-    return lastSearched_;
+    return getSlopeRangeReport().searchedSlopes;
   }
-  bool lastSurveyFoundNothing() const {
+  SlopeRangeReport getSlopeRangeReport() const override {
     std::lock_guard<std::mutex> lock(lastMutex_);
-    return lastSurveyFoundNothing_;
+    return lastReport_;
   }
 
   // --- Feature2D ----------------------------------------------------------------------
@@ -188,7 +184,14 @@ class LiFF_Impl : public LiFF {
   // for the converted light field `lf`.
   SlopePlan planSlices(const Parameters& parameters, const LightField& lf, int batch,
                        const std::vector<cv::KeyPoint>* describing) const;
-  void remember(const SlopePlan& plan);
+  // The report of a call on `lf` with `parameters` that built `plan` (before its features).
+  static SlopeRangeReport planReport(const Parameters& parameters, const LightField& lf,
+                                     const SlopePlan& plan);
+  // The report's end counts and, where many features sit at a hand-set end, the survey
+  // of `lf` (parameters' own, with the automatic range) for structure beyond it.
+  static void reportEnds(const Parameters& parameters, const LightField& lf, int batch,
+                         const std::vector<cv::KeyPoint>& keypoints, SlopeRangeReport& report);
+  void remember(SlopeRangeReport report);
   // Fits the memory limit (the slices built at once, `batch`) and converts `input`
   // into `lf`, whose sizes checkLightField set; returns the memory estimate.
   detail::MemoryEstimate convert(const Parameters& parameters, const cv::Mat& input, LightField& lf,
@@ -196,9 +199,8 @@ class LiFF_Impl : public LiFF {
 
   Parameters parameters_;
   double memoryLimitMB_ = 0;
-  mutable std::mutex lastMutex_;  // guards the last call's slices (calls may be concurrent)
-  std::vector<double> lastSlices_, lastSearched_;
-  bool lastSurveyFoundNothing_ = false;
+  mutable std::mutex lastMutex_;  // guards the last call's report (calls may be concurrent)
+  SlopeRangeReport lastReport_;
 };
 
 SlopePlan LiFF_Impl::planSlices(const Parameters& parameters, const LightField& lf, int batch,
@@ -219,14 +221,47 @@ SlopePlan LiFF_Impl::planSlices(const Parameters& parameters, const LightField& 
   return detail::automaticPlan(lf, parameters, batch);
 }
 
-void LiFF_Impl::remember(const SlopePlan& plan) {
-  std::vector<double> searched;
+SlopeRangeReport LiFF_Impl::planReport(const Parameters& parameters, const LightField& lf,
+                                       const SlopePlan& plan) {
+  SlopeRangeReport report;
+  report.slicesUsed = plan.slopes;
   for (int k = 0; k < plan.size(); ++k)
-    if (plan.searched[k]) searched.push_back(plan.slopes[k]);
+    if (plan.searched[k]) report.searchedSlopes.push_back(plan.slopes[k]);
+  report.T = lf.T;
+  report.S = lf.S;
+  report.V = lf.V;
+  report.U = lf.U;
+  report.automaticRange = std::isinf(parameters.firstSlope) && std::isinf(parameters.lastSlope);
+  if (report.automaticRange && detail::surveyed(lf.T, lf.S))
+    report.automaticReach = detail::largestSlope(lf.T, lf.S, lf.V, lf.U);
+  report.surveyFoundNothing = plan.surveyFoundNothing;
+  return report;
+}
+
+void LiFF_Impl::reportEnds(const Parameters& parameters, const LightField& lf, int batch,
+                           const std::vector<cv::KeyPoint>& keypoints, SlopeRangeReport& report) {
+  const std::vector<double>& searched = report.searchedSlopes;
+  const bool firstSet = std::isfinite(parameters.firstSlope);
+  const bool lastSet = std::isfinite(parameters.lastSlope);
+  if (!(firstSet || lastSet) || searched.size() < 2 || keypoints.empty()) return;
+  const double tolerance = 1.0 / kSlopeScale;  // one class_id step
+  for (const cv::KeyPoint& kp : keypoints) {
+    const double slope = keypointSlope(kp);
+    report.featuresAtFirstSlope += firstSet && std::abs(slope - searched.front()) <= tolerance;
+    report.featuresAtLastSlope += lastSet && std::abs(slope - searched.back()) <= tolerance;
+  }
+  if (report.featuresAtFirstSlope + report.featuresAtLastSlope <=
+      kRangeEndShare * double(keypoints.size()))
+    return;
+  // Many features at a hand-set end: their slopes may be pinned there. The survey of the
+  // light field already converted finds what lies beyond (docs/SLOPES.md).
+  report.endsSurveyed = true;
+  report.surveyedSlopes = detail::surveySlopes(lf, parameters, -HUGE_VAL, HUGE_VAL, batch).slopes;
+}
+
+void LiFF_Impl::remember(SlopeRangeReport report) {
   std::lock_guard<std::mutex> lock(lastMutex_);
-  lastSlices_ = plan.slopes;
-  lastSearched_ = searched;
-  lastSurveyFoundNothing_ = plan.surveyFoundNothing;
+  lastReport_ = std::move(report);
 }
 
 detail::MemoryEstimate LiFF_Impl::convert(const Parameters& parameters, const cv::Mat& input,
@@ -268,7 +303,7 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   const detail::MemoryEstimate need = convert(parameters, input, lf, batch);
   const SlopePlan slices =
       planSlices(parameters, lf, batch, useProvidedKeypoints ? &keypoints : nullptr);
-  remember(slices);
+  SlopeRangeReport report = planReport(parameters, lf, slices);
   // Near the memory limit, the buffers the survey freed (kept for the next call's survey,
   // of sizes the detection does not use) go back now rather than sit beside its own.
   if (need.nearLimit) releaseWorkingMemory();
@@ -286,15 +321,21 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
     cv::Mat descriptors;
     detail::describeProvidedKeypoints(call, keypoints, wantDescriptors, descriptors);
     if (wantDescriptors) descriptors.copyTo(descriptorsOut);
+    report.featuresFound = report.featuresReturned = int(keypoints.size());
+    remember(std::move(report));
     return;
   }
   Detections detections = detail::detectInSlices(call, mask, wantDescriptors);
   detail::sortAndDeduplicate(detections);
+  report.featuresFound = int(detections.keypoints.size());
   detail::retainBest(detections, parameters.nfeatures);
+  report.featuresReturned = int(detections.keypoints.size());
+  reportEnds(parameters, lf, batch, detections.keypoints, report);
   if (wantDescriptors)
     detections.copyDescriptorsTo(descriptorsOut, detail::kDescriptorSize,
                                  parameters.descriptorType);
   keypoints.swap(detections.keypoints);
+  remember(std::move(report));
 }
 
 }  // namespace
@@ -315,11 +356,6 @@ cv::Ptr<LiFF> LiFF::create(int nfeatures, int nOctaveLayers, double contrastThre
   LIFF_PARAMETERS(LIFF_SET_PARAMETER)
 #undef LIFF_SET_PARAMETER
   return create(parameters);
-}
-
-bool detail::lastSurveyFoundNothing(const LiFF& detector) {
-  const auto* impl = dynamic_cast<const LiFF_Impl*>(&detector);
-  return impl != nullptr && impl->lastSurveyFoundNothing();
 }
 
 }  // namespace liff

@@ -89,11 +89,6 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
 /// hand-set range.
 SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch);
 
-/// Whether `detector`'s last completed call had an automatic range whose survey found
-/// nothing (SlopePlan::surveyFoundNothing): it searched the paper's [-1, 1]. For the
-/// Python warning; false for other detectors.
-bool lastSurveyFoundNothing(const LiFF& detector);
-
 /// compute() with an automatic range and several views: the slices of the grid
 /// origin + k * sliceSpacing (origin: the finite bound of a half-automatic range, else
 /// 0) nearest each of `slopes` (the given keypoints'), the slices detection describes

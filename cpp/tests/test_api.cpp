@@ -449,3 +449,48 @@ TEST(ParameterFile, NoDocumentTheCheckPassesCrashesOpenCVsParser) {
   EXPECT_GT(parsed, 100);
 }
 #endif
+
+// --- The report of a call's slope range ----------------------------------------------------
+
+// A hand-set range that ends before the blob's slope pins its features at the end: the
+// report counts them and carries the survey's slopes beyond; with the automatic range it
+// carries the reach and no end survey.
+TEST(SlopeRangeReport, CountsFeaturesAtHandSetEndsAndSurveysBeyondThem) {
+  const double slope = 1.2;
+  const cv::Mat lf = blobLightField(5, 5, 96, 96, 47.3, 45.6, slope);
+  const cv::Ptr<liff::LiFF> d = liff::LiFF::create();
+  d->setFirstSlope(-0.5);
+  d->setLastSlope(0.5);
+  std::vector<cv::KeyPoint> kps;
+  d->detect(lf, kps);
+  ASSERT_FALSE(kps.empty());
+  liff::SlopeRangeReport report = d->getSlopeRangeReport();
+  EXPECT_FALSE(report.automaticRange);
+  EXPECT_TRUE(std::isnan(report.automaticReach));
+  EXPECT_EQ(report.T, 5);
+  EXPECT_EQ(report.U, 96);
+  EXPECT_EQ(report.slicesUsed, d->getSlicesUsed());
+  EXPECT_EQ(report.searchedSlopes, d->getSearchedSlopes());
+  EXPECT_EQ(report.featuresReturned, int(kps.size()));
+  EXPECT_GE(report.featuresFound, report.featuresReturned);
+  int atLast = 0;
+  for (const cv::KeyPoint& k : kps) atLast += std::abs(liff::keypointSlope(k) - 0.5) < 1e-4;
+  EXPECT_EQ(report.featuresAtLastSlope, atLast);
+  EXPECT_GT(atLast, 0);
+  EXPECT_EQ(report.featuresAtFirstSlope, 0);
+  ASSERT_TRUE(report.endsSurveyed);
+  ASSERT_FALSE(report.surveyedSlopes.empty());
+  std::vector<double> surveyed = report.surveyedSlopes;
+  std::nth_element(surveyed.begin(), surveyed.begin() + surveyed.size() / 2, surveyed.end());
+  EXPECT_NEAR(surveyed[surveyed.size() / 2], slope, 0.3);
+
+  d->setFirstSlope(-HUGE_VAL);
+  d->setLastSlope(HUGE_VAL);
+  d->detect(lf, kps);
+  report = d->getSlopeRangeReport();
+  EXPECT_TRUE(report.automaticRange);
+  EXPECT_DOUBLE_EQ(report.automaticReach, 96 / (4.0 * 4));
+  EXPECT_FALSE(report.endsSurveyed);
+  EXPECT_EQ(report.featuresAtLastSlope, 0);
+  EXPECT_TRUE(report.surveyedSlopes.empty());
+}

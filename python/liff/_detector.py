@@ -17,8 +17,9 @@ from . import _core
 from ._warnings import SlopeRangeWarning
 from .keypoint_rows import SLOPE_SCALE, KeyPoints, keypoints_to_rows, rows_to_keypoints
 
-RANGE_END_SHARE = 0.05
-"""A hand-set slope range warns when more than this share of features sit at its ends."""
+RANGE_END_SHARE: float = _core.RANGE_END_SHARE
+"""A hand-set slope range warns when more than this share of features sit at its ends
+(the core's kRangeEndShare, liff/liff.hpp: past it, the core surveys for structure beyond)."""
 SMALL_REACH = 3.0
 """Below this largest automatic slope (pixels per view step), finding no feature is
 worth a warning: scenes often reach beyond it (camera arrays, gantries)."""
@@ -334,20 +335,22 @@ class LiFF(_core.LiFF):
         return np.empty((0, self.descriptorSize()), dtype)
 
     def _check_range_ends(self, lf: np.ndarray, rows: np.ndarray, masked: bool = False) -> None:
-        """The range warnings: :meth:`_check_pinned_ends`; with an automatic range and no
-        feature, that slopes beyond the largest one considered, R, are not searched
+        """The range warnings, from the core's report of the call
+        (:meth:`getSlopeRangeReport`): :meth:`_check_pinned_ends`; with an automatic range
+        and no feature, that slopes beyond the largest one considered, R, are not searched
         (docs/SLOPES.md, "Bound"): where R is small (under SMALL_REACH), the views are
         large enough to survey, no mask was given and the light field is not constant;
         and with an automatic range whose survey found nothing in a light field that is
         not constant, that the paper's [-1, 1] was searched ("Nothing found")."""
-        if not (math.isinf(self.getFirstSlope()) and math.isinf(self.getLastSlope())):
-            self._check_pinned_ends(lf, rows)  # a finite end: features pinned there?
+        report = self.getSlopeRangeReport()
+        if not report.automaticRange:
+            self._check_pinned_ends(report, len(rows))  # a finite end: features pinned there?
             return
         if lf.ndim < 4:  # one view: one slice, no range
             return
         if not len(rows):
-            T, S, V, U = lf.shape[:4]
-            reach = _core._automatic_reach(T, S, V, U)  # NaN: no survey, nothing to warn of
+            T, S, V, U = report.T, report.S, report.V, report.U
+            reach = report.automaticReach  # NaN: no survey, nothing to warn of
             if reach < SMALL_REACH and min(V, U) >= 64 and not masked and np.ptp(lf) > 0:
                 warnings.warn(f"no features with the automatic slope range, which considers "
                               f"slopes within +-{reach:.2f} (min(V, U) / (4 (max(T, S) - 1)) "
@@ -355,7 +358,7 @@ class LiFF(_core.LiFF):
                               "beyond, set firstSlope and lastSlope",
                               SlopeRangeWarning, stacklevel=3)
                 return
-        if self._survey_found_nothing() and np.ptp(lf) > 0:
+        if report.surveyFoundNothing and np.ptp(lf) > 0:
             # A light field that is not constant, in which the survey found no structure
             # (noise, low contrast, mostly invalid samples): the paper's range was searched.
             warnings.warn(f"the automatic slope range's survey found no structure in this "
@@ -365,25 +368,20 @@ class LiFF(_core.LiFF):
                           "the scene's slopes reach beyond, set firstSlope and lastSlope",
                           SlopeRangeWarning, stacklevel=3)
 
-    def _check_pinned_ends(self, lf: np.ndarray, rows: np.ndarray) -> None:
-        """Warns (SlopeRangeWarning) when more than RANGE_END_SHARE of the features sit
-        at a hand-set end of the slope range (firstSlope or lastSlope finite) and the
-        automatic survey (docs/SLOPES.md) finds structure beyond that end: their slopes
-        are pinned there. Features at an end the scene itself ends at are not warned
-        about."""
+    def _check_pinned_ends(self, report, count: int) -> None:
+        """Warns (SlopeRangeWarning) when more than RANGE_END_SHARE of the ``count``
+        features sit at a hand-set end of the slope range (firstSlope or lastSlope finite)
+        and the automatic survey (docs/SLOPES.md), which the core then ran, finds
+        structure beyond that end: their slopes are pinned there. Features at an end the
+        scene itself ends at are not warned about."""
         first, last = self.getFirstSlope(), self.getLastSlope()
-        searched = self.getSearchedSlopes()
-        if not (math.isfinite(first) or math.isfinite(last)) or len(searched) < 2 or not len(rows):
+        if not report.endsSurveyed:  # few features at the ends (the core counted them)
             return
-        slopes = rows[:, 6] / SLOPE_SCALE
-        tol = 1.0 / SLOPE_SCALE
-        low = int(np.sum(np.abs(slopes - searched[0]) <= tol)) if math.isfinite(first) else 0
-        high = int(np.sum(np.abs(slopes - searched[-1]) <= tol)) if math.isfinite(last) else 0
-        if low + high <= RANGE_END_SHARE * len(rows):
-            return
+        low, high = report.featuresAtFirstSlope, report.featuresAtLastSlope
+        searched = report.searchedSlopes
         # Structure beyond an end: a share of the survey's features (not one outlier)
         # nearer a slice past the end than the end slice itself.
-        surveyed = np.asarray(self._survey(lf))
+        surveyed = np.asarray(report.surveyedSlopes)
         half = (searched[1] - searched[0]) / 2
         if not len(surveyed) or not (
                 (low and np.mean(surveyed < first - half) > RANGE_END_SHARE) or
@@ -393,7 +391,7 @@ class LiFF(_core.LiFF):
         suggested = ", ".join(
             [f"firstSlope={min(first, found[0]):.2f}"] * math.isfinite(first) +
             [f"lastSlope={max(last, found[1]):.2f}"] * math.isfinite(last))
-        warnings.warn(f"{low + high} of {len(rows)} features ({100 * (low + high) / len(rows):.0f}%) "
+        warnings.warn(f"{low + high} of {count} features ({100 * (low + high) / count:.0f}%) "
                       f"sit at an end of the slope range [{first:g}, {last:g}] and the light "
                       f"field has structure beyond it (slopes {found[0]:.2f} to {found[1]:.2f}), "
                       f"whose features are reported at the end; try {suggested}, or the "

@@ -20,6 +20,9 @@
 // class_id = round(slope * kSlopeScale); read it back with keypointSlope().
 #pragma once
 
+#include <limits>
+#include <vector>
+
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>  // OpenCV 5 keeps this as a compatibility header
 
@@ -55,6 +58,42 @@ bool getWorkingMemoryReuse();
 /// under the cgroup's (v2 or v1) limit, plus the working memory kept for reuse; 0 when
 /// unknown (other systems: no automatic limit).
 double availableMemoryBytes();
+
+/// Share of a call's features at a hand-set end of the slope range above which the
+/// detector looks for structure beyond that end (SlopeRangeReport::surveyedSlopes).
+constexpr double kRangeEndShare = 0.05;
+
+/// What the last completed detect/detectAndCompute/compute call of a detector found out about its
+/// own slope range (docs/SLOPES.md): the facts the Python package's SlopeRangeWarning
+/// messages are made of, computed by the core during the call. Slopes are in pixels per
+/// view step (the slope convention above).
+struct SlopeRangeReport {
+  /// Slopes of every focal slice the call built, increasing, and of the slices it searched
+  /// for extrema (the others were built as the neighbours of searched ones).
+  std::vector<double> slicesUsed, searchedSlopes;
+  /// The light field's sizes.
+  int T = 0, S = 0, V = 0, U = 0;
+  /// Whether the range was automatic (firstSlope = -inf and lastSlope = +inf).
+  bool automaticRange = false;
+  /// Largest |slope| the automatic range considers, min(V, U) / (4 (max(T, S) - 1)); NaN
+  /// with a hand-set range or where the automatic range runs no survey (one or two views
+  /// along the longer axis).
+  double automaticReach = std::numeric_limits<double>::quiet_NaN();
+  /// The automatic range's survey ran and found no structure: the paper's [-1, 1] was
+  /// searched.
+  bool surveyFoundNothing = false;
+  /// Features the call found before nfeatures' cut (retainBest) and returned after it.
+  int featuresFound = 0, featuresReturned = 0;
+  /// Returned features whose slope is the first (last) searched slope where that end is a
+  /// finite, hand-set bound (within one class_id step, 1 / kSlopeScale); 0 otherwise.
+  int featuresAtFirstSlope = 0, featuresAtLastSlope = 0;
+  /// Where those features are more than kRangeEndShare of the returned ones: whether the
+  /// automatic range's survey (docs/SLOPES.md) ran on the light field to find structure
+  /// beyond the ends, and the slopes of the features it kept (structure the hand-set
+  /// range may have cut; empty when it found none).
+  bool endsSurveyed = false;
+  std::vector<double> surveyedSlopes;
+};
 
 /// LiFF detector and descriptor: SIFT extended to the 4-D light field.
 ///
@@ -121,6 +160,10 @@ class CV_EXPORTS_W LiFF : public cv::Feature2D {
   /// lies within half a slice spacing of one. The others were built only as the
   /// neighbours a searched slice is compared with.
   virtual std::vector<double> getSearchedSlopes() const = 0;
+  /// What the last completed detect/detectAndCompute/compute call found out about its
+  /// slope range (SlopeRangeReport; for compute(), its slices and the keypoints
+  /// described); all defaults before the first call.
+  virtual SlopeRangeReport getSlopeRangeReport() const = 0;
 
   cv::String getDefaultName() const override;
 

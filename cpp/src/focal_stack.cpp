@@ -101,15 +101,20 @@ LIFF_HOT_LOOP void sumShiftedRows(const float* const* src, const Shift* shift, i
 #endif
   for (; x < interior.begin; ++x) out[x] = column(x);
 #ifdef LIFF_VEC8
-  // 4 vectors per step: the adds of one vector form a chain over the views.
+  // 4 vectors per step: the adds of one vector form a chain over the views. A view
+  // shifted by whole pixels (frac 0: the centre view, and the outermost ones at every
+  // slope of the default grid) adds its sample alone: 1 * a + 0 * b is a, exactly.
   constexpr int kVectors = 4, kStep = kVectors * kLanes;
   for (; x + kStep <= interior.end; x += kStep) {
     Vec8 acc[kVectors] = {};
     for (int s = 0; s < S; ++s) {
       const float w0 = 1.f - shift[s].frac, w1 = shift[s].frac;
       const float* p = src[s] + x + shift[s].whole;
-      for (int v = 0; v < kVectors; ++v)
-        acc[v] += w0 * load(p + v * kLanes) + w1 * load(p + v * kLanes + 1);
+      if (w1 == 0.f)
+        for (int v = 0; v < kVectors; ++v) acc[v] += load(p + v * kLanes);
+      else
+        for (int v = 0; v < kVectors; ++v)
+          acc[v] += w0 * load(p + v * kLanes) + w1 * load(p + v * kLanes + 1);
     }
     for (int v = 0; v < kVectors; ++v) store(out + x + v * kLanes, acc[v]);
   }
@@ -117,7 +122,10 @@ LIFF_HOT_LOOP void sumShiftedRows(const float* const* src, const Shift* shift, i
     Vec8 acc = {};
     for (int s = 0; s < S; ++s) {
       const float* p = src[s] + x + shift[s].whole;
-      acc += (1.f - shift[s].frac) * load(p) + shift[s].frac * load(p + 1);
+      if (shift[s].frac == 0.f)
+        acc += load(p);
+      else
+        acc += (1.f - shift[s].frac) * load(p) + shift[s].frac * load(p + 1);
     }
     store(out + x, acc);
   }

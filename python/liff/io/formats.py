@@ -25,7 +25,7 @@ from .eslf import read_eslf
 from .hci import is_hci_scene, read_hci_light_field
 from .hdf5 import dataset_shapes, read_hdf5
 from .images import IMAGE_SUFFIXES
-from .mat import read_mat
+from .mat import holds_light_field as mat_holds_light_field, read_mat
 from .mosaic import read_mosaic
 from .numpy_files import read_numpy, stored_shapes
 from .views import read_views, view_names
@@ -174,8 +174,7 @@ FORMATS: Dict[str, InputFormat] = {f.name: f for f in (
                 holds_light_field=lambda path: _arrays_hold_light_field(stored_shapes(path)),
                 fuzz=(".npz", {})),
     InputFormat("mat", "MATLAB file (Light Field Toolbox, HCI tools), variable LF",
-                ("*.mat",), read_mat, ("key",),
-                holds_light_field=lambda path: _arrays_hold_light_field(dataset_shapes(path)),
+                ("*.mat",), read_mat, ("key",), holds_light_field=mat_holds_light_field,
                 fuzz=(".mat", {})),
     InputFormat("hdf5", "HDF5 file (2013 HCI benchmark), dataset LF", ("*.h5", "*.hdf5", "*.hdf"),
                 read_hdf5, ("key",),

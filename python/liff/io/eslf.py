@@ -187,7 +187,8 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
         The image (any format OpenCV reads; ``cv2.IMREAD_UNCHANGED``).
     n : int, optional
         Lenslet size in pixels (views per row and per column of the lenslet grid); a
-        whole number (2.0 is taken as 2, 2.5 is refused). Default: detected from the
+        whole number >= 2 (2.0 is taken as 2, 2.5 and 1 are refused); the image must
+        hold at least :data:`MIN_LENSLETS` (8) lenslets a side. Default: detected from the
         image (:func:`detect_lenslet_size`: the period of its alpha channel and of its
         pixels along rows and columns, and the image size); an image whose lenslet size
         cannot be told is refused. The Stanford Lytro archive uses 14, the Light Field
@@ -213,8 +214,11 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
     Raises
     ------
     ValueError
-        Naming the file: unreadable, ``n`` or ``keep`` not a whole number >= 1, a
-        lenslet size that cannot be detected, an image smaller than one lenslet, or
+        Naming the file: unreadable, ``n`` not a whole number >= 2 (a lenslet of one
+        pixel is one view: an ordinary image), ``keep`` not a whole number >= 1, a
+        lenslet size that cannot be detected, an image of fewer than
+        :data:`MIN_LENSLETS` (8) lenslets a side (views smaller than 8 x 8 pixels: a
+        thumbnail, or the wrong n; the lenslet size detection needs as many), or
         ``keep`` larger than ``n``.
 
     Warns
@@ -225,16 +229,20 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
     path = os.fspath(path)
     detected = n is None
     if not detected:
-        n = positive_int(n, "lenslet size n", path, 1)
+        n = positive_int(n, "lenslet size n", path, 2, "a whole number of pixels >= 2 (each "
+                         "lenslet holds n x n views; n = 1 is an ordinary image)")
     image = read_image(path, copies=2)  # the image and the light field rearranged from it
     evidence: dict = {}
     if detected:
         n, evidence = detect_lenslet_size(image, source=path)
     height, width = image.shape[:2]
     V, U = height // n, width // n
-    if V == 0 or U == 0:
-        raise ValueError(f"{path}: image is {width}x{height}; expected at least one {n}x{n} "
-                         f"lenslet")
+    if min(V, U) < MIN_LENSLETS:
+        raise ValueError(f"{path}: image is {width}x{height}: {U}x{V} lenslets of {n}x{n} pixels "
+                         f"(n={n}); expected at least {MIN_LENSLETS} lenslets a side, an image of "
+                         f"at least {MIN_LENSLETS * n}x{MIN_LENSLETS * n} pixels (views of at "
+                         f"least {MIN_LENSLETS}x{MIN_LENSLETS} pixels, as the lenslet size "
+                         "detection needs): a thumbnail, or not this image's lenslet size")
     if image.ndim == 2:
         image = image[:, :, None]
     channels = image.shape[2]

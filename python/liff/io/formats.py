@@ -68,6 +68,22 @@ class ReaderOption:
         return " ".join([self.flag] + [str(v) for v in values])
 
 
+def lenslet_size(text: str) -> int:
+    """``--lenslet``'s type: a whole number >= 2 (argparse.ArgumentTypeError naming the
+    value and what was expected: a lenslet of one pixel holds one view)."""
+    import argparse
+
+    try:
+        n = int(text)
+    except ValueError:
+        n = None
+    if n is None or n < 2:
+        raise argparse.ArgumentTypeError(
+            f"{text}; expected a lenslet size N >= 2 pixels (each lenslet holds N x N views; 1 "
+            "is an ordinary image), e.g. 14 for the Stanford Lytro archive")
+    return n
+
+
 #: every reader option, by keyword; ``bit_depth`` applies to every format
 OPTIONS: Dict[str, ReaderOption] = {o.keyword: o for o in (
     ReaderOption("grid", "--grid", "view grid (T, S): required for a mosaic; for views, the "
@@ -75,7 +91,7 @@ OPTIONS: Dict[str, ReaderOption] = {o.keyword: o for o in (
                  ("T", "S"), int, 2),
     ReaderOption("n", "--lenslet", "lenslet size of an ESLF image (default: detected from the "
                  "image; 14 in the Stanford Lytro archive, 15 from the Light Field Toolbox)",
-                 "N", int),
+                 "N", lenslet_size),
     ReaderOption("keep", "--keep-views", "ESLF: keep the centre K x K views (e.g. 11 of a "
                  "Lytro's 14)", "K", int),
     ReaderOption("pattern", "--pattern", "views: regex with named groups t and s (or index) "

@@ -162,6 +162,7 @@ def keyword_flags() -> Dict[str, str]:
 def name_flags(message: str) -> str:
     """``message`` with the readers' and the detector's Python keywords named as the
     command line's flags: "keep = 20" -> "--keep-views = 20", "(n=N)" -> "(--lenslet N)",
+    "format='mosaic'" -> "--format mosaic",
     "option(s) key do not apply ...; expected n, keep" -> "option(s) --key ...; expected
     --lenslet, --keep-views"."""
     from ..io.formats import OPTIONS
@@ -172,6 +173,9 @@ def name_flags(message: str) -> str:
         return re.sub(r"(?<![\w-])\w+", lambda word: OPTIONS[word.group(0)].flag
                       if word.group(0) in OPTIONS else word.group(0), match.group(0))
 
+    # format='mosaic' (the Python keyword): --format mosaic, once where both are named
+    message = re.sub(r"format='(\w+)', --format \1\b", r"--format \1", message)
+    message = re.sub(r"(?<![\w.-])format='(\w+)'", r"--format \1", message)
     if " do not apply to format " in message:  # liff.io.read_light_field's option check
         message = re.sub(r"(?<=option\(s\) ).*", in_list, message, flags=re.S)
     for option in OPTIONS.values():  # "n=N" as the command line writes it: "--lenslet N"
@@ -469,8 +473,7 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
                     done(results[i])
             except (ValueError, OSError, MemoryError) as error:
                 report(i, error)
-            if progress:
-                progress.update()
+            finished(progress, label(jobs[i]))
     else:
         # Each worker gets its share of the cores: LiFF uses all of them by default, and
         # N processes that each did would oversubscribe the machine N times over.
@@ -487,8 +490,7 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
                         done(results[i])
                 except (ValueError, OSError, MemoryError) as error:
                     report(i, error)
-                if progress:
-                    progress.update()
+                finished(progress, label(jobs[i]))
         except BaseException:  # Ctrl-C, SIGTERM: stop now, not after the queued jobs
             stop_now(pool)
             raise
@@ -496,6 +498,14 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
     if progress:
         progress.close()
     return results, failures
+
+
+def finished(bar, item: str) -> None:
+    """Counts ``item`` done on the progress ``bar`` (None: no bar), naming it: tqdm's
+    postfix, the log line's ``last ITEM``."""
+    if bar is not None:
+        bar.set_postfix_str(item, refresh=False)
+        bar.update()
 
 
 def _set_threads(threads: int) -> None:

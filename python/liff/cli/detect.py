@@ -259,7 +259,7 @@ def run_tasks(tasks: List[batch.Task], args: argparse.Namespace,
             bar.write(failure_line(outcome), file=sys.stderr)
         if done:
             done(outcome)
-        bar.update()
+        common.finished(bar, outcome.input)
 
     if args.scheduler:
         with common.progress(desc="liff detect", total=len(tasks)) as bar:

@@ -72,7 +72,7 @@ def read_hdf5(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
     with open(path, "rb") as f:
         if f.read(len(MATLAB_HEADER)) == MATLAB_HEADER:
             raise ValueError(f"{path}: a MATLAB v7.3 file (axes stored column-major); expected "
-                             f"HDF5 written in C order: read it with format='mat' (read_mat)")
+                             f"HDF5 written in C order; read it as a .mat file (format='mat')")
     try:
         with h5py.File(path, "r") as f:
             found = {}  # dataset path -> number of axes

@@ -362,3 +362,27 @@ def test_a_mat_files_header_is_read_without_its_data(tmp_path):
     assert [(name, dims) for name, dims, *_ in headers] == [("LF", (10, 10, 100, 100, 1)),
                                                             ("other", (2, 2))]
     assert counting.read_bytes < 2 * _matv5.HEADER_BYTES < os.path.getsize(path) // 50
+
+
+@pytest.mark.parametrize("case", ["collision", "output is input", "file for many", "manifest",
+                                  "hloc images alone"])
+def test_dry_run_refuses_exactly_what_the_run_refuses(tmp_path, capsys, monkeypatch, case):
+    """Break test of issue 31: two inputs that write one output were listed by --dry-run
+    (exit 0) while the run refused them; one function (liff.cli.detect.checked_plan)
+    now decides both."""
+    monkeypatch.chdir(tmp_path)
+    a = light_field_npz(tmp_path / "data" / "x" / "scene.npz")
+    b = light_field_npz(tmp_path / "data" / "y" / "scene.npz")
+    (tmp_path / "notes.csv").write_text("mine\n")
+    argv = {"collision": [str(tmp_path / "data"), "--out", "feats"],
+            "output is input": ["data/x/scene.npz", "--out", str(a)],
+            "file for many": [str(a), str(b), "--out", "one.npz"],
+            "manifest": [str(a), "--out", "f.npz", "--manifest", "notes.csv"],
+            "hloc images alone": [str(a), "--out", "f.npz", "--hloc-images", "imgs"]}[case]
+    assert main(["detect", *argv, "--dry-run"]) == 1
+    dry = capsys.readouterr().err
+    assert main(["detect", *argv]) == 1
+    real = capsys.readouterr().err
+    assert dry == real and dry.startswith("liff detect: ")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data", "notes.csv"]
+    assert (tmp_path / "notes.csv").read_text() == "mine\n"

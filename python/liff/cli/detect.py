@@ -434,6 +434,10 @@ def run(args: argparse.Namespace) -> int:
             print(f"hloc: replaced the features of {', '.join(added.replaced)} with other ones: "
                   "matches of them made before are stale (liff match --hloc refuses to add to "
                   "those match files); match them again into a new file", file=sys.stderr)
+        if added.replaced_images:
+            print(f"hloc: replaced {', '.join(added.replaced_images)} (--overwrite): files "
+                  f"--hloc-images held that were not centre views exported with {args.hloc} "
+                  "(another features file's images, or your own)", file=sys.stderr)
     if failed:
         print(f"liff detect: {failed} of {len(tasks)} light field(s) failed", file=sys.stderr)
     return 1 if failed else 0

@@ -104,14 +104,26 @@ def check_feature_file(calibration: Calibration, path: str, features) -> None:
         calibration.check(path, features.centre_view.shape, grid_known=False)
 
 
+#: LightFieldCamera's keywords, as the command line gives their values
+CAMERA_FLAGS = {"focal_length": "--camera F (focal length)", "baseline": "--camera B (baseline)",
+                "principal_point": "--camera CX CY (principal point)",
+                "focus_distance": "--focus-distance"}
+
+
 def calibration_from_args(args: argparse.Namespace) -> Optional[Calibration]:
     """The calibration the options name, or None when none is given."""
     if args.focus_distance != math.inf and args.camera is None:  # (a camera file has its own)
         raise ValueError("--focus-distance goes with --camera")
     if args.camera is not None:
         f, b, cx, cy = args.camera
-        return Calibration(LightFieldCamera(f, b, (cx, cy), args.focus_distance),
-                           "--camera " + " ".join(f"{v:g}" for v in args.camera))
+        try:
+            camera = LightFieldCamera(f, b, (cx, cy), args.focus_distance)
+        except ValueError as error:  # named as the command line's values, not the keywords
+            message = str(error)
+            for keyword, flag in CAMERA_FLAGS.items():
+                message = message.replace(keyword, flag)
+            raise ValueError(message) from None
+        return Calibration(camera, "--camera " + " ".join(f"{v:g}" for v in args.camera))
     if args.hci is not None:
         return read_hci_calibration(args.hci)
     if args.lftoolbox is not None:

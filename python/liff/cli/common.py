@@ -447,11 +447,14 @@ def error_line(command: str, name: str, error: str) -> str:
 
 def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: str,
               label: Callable[[tuple], str],
-              done: Optional[Callable[[object], None]] = None) -> Tuple[List, int]:
+              done: Optional[Callable[[object], None]] = None,
+              failed: Callable[[object], bool] = lambda result: False) -> Tuple[List, int]:
     """Runs ``function(*job)`` for every job, on ``workers`` processes (1 = here), with a
     progress bar on stderr (see :func:`progress`). A job that raises is reported as
     ``liff <command>: <label>: <error>`` and the rest go on; ``done(result)`` is called
     with each job's result as it comes (e.g. to write a manifest as the run goes).
+    The progress names each job that finished (``label``), unless it raised or
+    ``failed(result)``: its error line names it.
 
     Returns (results in job order, None for failures; number of failures).
     """
@@ -471,9 +474,10 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
                 results[i] = function(*job)
                 if done:
                     done(results[i])
+                finished(progress, None if failed(results[i]) else label(jobs[i]))
             except (ValueError, OSError, MemoryError) as error:
                 report(i, error)
-            finished(progress, label(jobs[i]))
+                finished(progress, None)
     else:
         # Each worker gets its share of the cores: LiFF uses all of them by default, and
         # N processes that each did would oversubscribe the machine N times over.
@@ -488,9 +492,10 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
                     results[i] = future.result()
                     if done:
                         done(results[i])
+                    finished(progress, None if failed(results[i]) else label(jobs[i]))
                 except (ValueError, OSError, MemoryError) as error:
                     report(i, error)
-                finished(progress, label(jobs[i]))
+                    finished(progress, None)
         except BaseException:  # Ctrl-C, SIGTERM: stop now, not after the queued jobs
             stop_now(pool)
             raise
@@ -500,11 +505,12 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
     return results, failures
 
 
-def finished(bar, item: str) -> None:
-    """Counts ``item`` done on the progress ``bar`` (None: no bar), naming it: tqdm's
-    postfix, the log line's ``last ITEM``."""
+def finished(bar, item: Optional[str]) -> None:
+    """Counts an input done on the progress ``bar`` (None: no bar), naming ``item``: tqdm's
+    postfix, the log line's ``last ITEM``; None for one that failed, which its error line
+    names already."""
     if bar is not None:
-        bar.set_postfix_str(item, refresh=False)
+        bar.set_postfix_str(item or "", refresh=False)
         bar.update()
 
 

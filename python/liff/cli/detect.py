@@ -259,14 +259,15 @@ def run_tasks(tasks: List[batch.Task], args: argparse.Namespace,
             bar.write(failure_line(outcome), file=sys.stderr)
         if done:
             done(outcome)
-        common.finished(bar, outcome.input)
+        common.finished(bar, None if outcome.error else outcome.input)
 
     if args.scheduler:
         with common.progress(desc="liff detect", total=len(tasks)) as bar:
             return batch.run(tasks, args.scheduler, progress=report,
                              notice=lambda text: bar.write(f"liff detect: {text}", file=sys.stderr))
     outcomes, _ = common.run_batch(batch.run_task, [(task,) for task in tasks], args.workers,
-                                   "detect", label=lambda job: job[0].source, done=done)
+                                   "detect", label=lambda job: job[0].source, done=done,
+                                   failed=lambda outcome: bool(outcome.error))
     outcomes = [o or batch.Outcome(t.source, t.output, "failed", error="reported above",
                                    **batch.read_as(t.reader_options))
                 for t, o in zip(tasks, outcomes)]

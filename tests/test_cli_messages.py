@@ -47,7 +47,8 @@ def test_lenslet_refuses_what_cannot_be_a_lenslet_size(tmp_path, capsys, value):
 
 def test_lenslet_refuses_an_image_too_small_for_8_lenslets_a_side(tmp_path, capsys):
     """Break test: a thumbnail (40x40 pixels) read with --lenslet 14 gave a light field
-    of 2x2-pixel views. At least 8 lenslets a side, as the size detection needs."""
+    of 2x2-pixel views. The command line asks at least 8 lenslets a side, as the size
+    detection needs (8 a side is taken)."""
     import cv2
 
     image = eslf_image(tmp_path / "a.eslf.png", n=5, size=64)  # 320x320
@@ -58,9 +59,11 @@ def test_lenslet_refuses_an_image_too_small_for_8_lenslets_a_side(tmp_path, caps
     assert (f"{thumb}: image is 40x40: 2x2 lenslets of 14x14 pixels (--lenslet 14); expected "
             "at least 8 lenslets a side, an image of at least 112x112 pixels") in err
     assert not (tmp_path / "t.npz").exists()
-    assert liff.io.read_eslf(thumb, 5).light_field.shape[2:4] == (8, 8)  # 8 a side: taken
-    with pytest.raises(ValueError, match="6x6 lenslets of 50x50 pixels"):
-        liff.io.read_eslf(image, 50)
+    assert liff.io.read_eslf(thumb, 14).light_field.shape[2:4] == (2, 2)  # the API reads it
+    assert main(["detect", str(thumb), "--lenslet", "5", "--out", str(tmp_path / "t.npz")]) == 0
+    assert main(["pose", str(image), str(image), "--lenslet", "50", "--camera", "300", "0.04",
+                 "3", "3"]) == 1  # (every command reads through the same check)
+    assert "6x6 lenslets of 50x50 pixels (--lenslet 50)" in capsys.readouterr().err
 
 
 def test_messages_name_flags_not_python_names(tmp_path, capsys):

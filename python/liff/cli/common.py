@@ -247,10 +247,15 @@ def make_detector(parameters: dict) -> LiFF:
 
 def read_input(path: str, options: dict, preprocess: bool) -> Tuple[np.ndarray, dict]:
     """Reads a light field (any liff.io format), optionally preprocessed, and the
-    reader's metadata (e.g. an HCI scene's disparity range and camera)."""
+    reader's metadata (e.g. an HCI scene's disparity range and camera). A lenslet image
+    read with ``--lenslet`` must hold 8 lenslets a side
+    (:func:`liff.io.eslf.check_given_lenslets`)."""
     from .. import io
 
+    from ..io.eslf import check_given_lenslets
+
     read = io.read_light_field(path, **options)
+    check_given_lenslets(read)  # --lenslet: at least 8 lenslets a side
     light_field = read.light_field
     if preprocess:
         from ..preprocess import prepare

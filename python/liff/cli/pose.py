@@ -52,10 +52,7 @@ def features_and_camera(path: str, options: dict, args: argparse.Namespace,
         if calibration is not None:
             check_feature_file(calibration, path, features)
         return features, None
-    from .. import io
-
-    source = io.read_light_field(path, **options)
-    light_field = source.light_field
+    light_field, metadata = common.read_input(path, options, preprocess=False)
     if calibration is not None:
         calibration.check(path, light_field.shape)
     if args.preprocess:
@@ -63,7 +60,7 @@ def features_and_camera(path: str, options: dict, args: argparse.Namespace,
 
         light_field = prepare(light_field)
     detector = common.make_detector(common.detector_parameters(args))
-    return features_from_light_field(detector, light_field), source.metadata.get("camera")
+    return features_from_light_field(detector, light_field), metadata.get("camera")
 
 
 def carries_camera(path: str, args: argparse.Namespace) -> bool:

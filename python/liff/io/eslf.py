@@ -187,8 +187,7 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
         The image (any format OpenCV reads; ``cv2.IMREAD_UNCHANGED``).
     n : int, optional
         Lenslet size in pixels (views per row and per column of the lenslet grid); a
-        whole number >= 2 (2.0 is taken as 2, 2.5 and 1 are refused); the image must
-        hold at least :data:`MIN_LENSLETS` (8) lenslets a side. Default: detected from the
+        whole number >= 2 (2.0 is taken as 2, 2.5 and 1 are refused). Default: detected from the
         image (:func:`detect_lenslet_size`: the period of its alpha channel and of its
         pixels along rows and columns, and the image size); an image whose lenslet size
         cannot be told is refused. The Stanford Lytro archive uses 14, the Light Field
@@ -216,10 +215,9 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
     ValueError
         Naming the file: unreadable, ``n`` not a whole number >= 2 (a lenslet of one
         pixel is one view: an ordinary image), ``keep`` not a whole number >= 1, a
-        lenslet size that cannot be detected, an image of fewer than
-        :data:`MIN_LENSLETS` (8) lenslets a side (views smaller than 8 x 8 pixels: a
-        thumbnail, or the wrong n; the lenslet size detection needs as many), or
-        ``keep`` larger than ``n``.
+        lenslet size that cannot be detected, an image smaller than one lenslet, or
+        ``keep`` larger than ``n``. (The ``liff`` command asks more of a given size:
+        :func:`check_given_lenslets`.)
 
     Warns
     -----
@@ -237,12 +235,9 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
         n, evidence = detect_lenslet_size(image, source=path)
     height, width = image.shape[:2]
     V, U = height // n, width // n
-    if min(V, U) < MIN_LENSLETS:
-        raise ValueError(f"{path}: image is {width}x{height}: {U}x{V} lenslets of {n}x{n} pixels "
-                         f"(n={n}); expected at least {MIN_LENSLETS} lenslets a side, an image of "
-                         f"at least {MIN_LENSLETS * n}x{MIN_LENSLETS * n} pixels (views of at "
-                         f"least {MIN_LENSLETS}x{MIN_LENSLETS} pixels, as the lenslet size "
-                         "detection needs): a thumbnail, or not this image's lenslet size")
+    if V == 0 or U == 0:
+        raise ValueError(f"{path}: image is {width}x{height}; expected at least one {n}x{n} "
+                         f"lenslet")
     if image.ndim == 2:
         image = image[:, :, None]
     channels = image.shape[2]
@@ -261,6 +256,32 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
                 "image_size": (height, width), "cropped": (height - V * n, width - U * n),
                 "has_alpha": channels in (2, 4)}
     return LightFieldFile(light_field, "eslf", metadata, None, path)
+
+
+def check_given_lenslets(result: LightFieldFile) -> None:
+    """Refuses a lenslet image read with a given size ``n`` that makes fewer than
+    :data:`MIN_LENSLETS` (8) lenslets a side, views smaller than 8 x 8 pixels: what
+    :func:`detect_lenslet_size` needs to see a lenslet period, and less than a feature
+    needs. Such an image is a thumbnail, or ``n`` is not its lenslet size. The ``liff``
+    command applies it to ``--lenslet``; :func:`read_eslf` itself reads any image of at
+    least one lenslet (small light fields round-trip).
+
+    Raises
+    ------
+    ValueError
+        Naming the file, its size, the lenslets ``n`` makes and the size ``n`` needs.
+    """
+    meta = result.metadata
+    if result.format != "eslf" or meta.get("lenslet_size_detected", True):
+        return
+    n, (height, width) = meta["lenslet_size"], meta["image_size"]
+    U, V = width // n, height // n
+    if min(U, V) < MIN_LENSLETS:
+        raise ValueError(f"{result.source}: image is {width}x{height}: {U}x{V} lenslets of {n}x{n} "
+                         f"pixels (n={n}); expected at least {MIN_LENSLETS} lenslets a side, an "
+                         f"image of at least {MIN_LENSLETS * n}x{MIN_LENSLETS * n} pixels (views "
+                         f"of at least {MIN_LENSLETS}x{MIN_LENSLETS} pixels, as the lenslet size "
+                         "detection needs): a thumbnail, or not this image's lenslet size")
 
 
 def write_eslf(path: PathLike, light_field: np.ndarray, n: Optional[int] = None) -> None:

@@ -196,7 +196,7 @@ def hci_parameters(folder, width=80, height=60, cams=(3, 3)):
 
 
 @pytest.mark.parametrize("width, height, cams, stated", [
-    (160, 120, (9, 9), "160x120 pixels in a 9x9 grid"),
+    (160, 120, (4, 4), "160x120 pixels in a 4x4 grid"),
     (320, 240, (3, 3), "320x240 pixels in a 3x3 grid")])
 def test_an_hci_scene_of_another_view_size_or_grid_is_refused(poses, tmp_path, capsys, width,
                                                               height, cams, stated):
@@ -205,9 +205,14 @@ def test_an_hci_scene_of_another_view_size_or_grid_is_refused(poses, tmp_path, c
     assert main(["pose", *pair, "--hci", str(scene)]) == 1
     assert (f"{pair[0]}: views of 160x120 pixels in a 3x3 grid, but --hci {scene} is the "
             f"calibration of views of {stated}") in capsys.readouterr().err
-    hci_parameters(scene, 160, 120, (3, 3))  # the inputs' own: taken
-    assert main(["pose", *pair, "--hci", str(scene)]) == 0
-    assert "R =" in capsys.readouterr().out
+    for cams in ((3, 3), (5, 7)):  # the inputs' own grid, or one they are the centre of
+        hci_parameters(scene, 160, 120, cams)
+        assert main(["pose", *pair, "--hci", str(scene)]) == 0
+        assert "R =" in capsys.readouterr().out
+    hci_parameters(scene, 160, 120, (4, 3))  # 3 views are no centred part of 4
+    assert main(["pose", *pair, "--hci", str(scene)]) == 1
+    assert ("in a 4x3 grid; expected the calibration of these inputs' camera (the same view "
+            "size, and its grid or a centred part of it") in capsys.readouterr().err
 
 
 def test_a_toolbox_file_is_checked_against_the_light_field_it_holds_or_its_principal_point(

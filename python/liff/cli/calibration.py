@@ -64,9 +64,10 @@ class Calibration:
     def check(self, path: str, shape, grid_known: bool = True) -> None:
         """Refuses the input ``path`` of light field shape ``shape`` ((T, S, V, U[, C]),
         or a view's (V, U[, C]): a 1x1 light field, or with ``grid_known=False`` a view
-        of a grid not known) unless its views are of the size (and grid) the calibration
-        states. A calibration that states no size must at least have its principal point
-        inside the views.
+        of a grid not known) unless its views are of the size the calibration states, in
+        its grid or a centred part of it (``--keep-views``: the same centre view). A
+        calibration that states no size must at least have its principal point inside
+        the views.
 
         Raises
         ------
@@ -79,13 +80,16 @@ class Calibration:
         grid = shape[:2] if many else (1, 1) if grid_known else None
         seen = f"{path}: views of {size[0]}x{size[1]} pixels" + (
             f" in a {grid[0]}x{grid[1]} grid" if grid is not None and self.grid is not None else "")
-        if self.view_size is not None and (size != self.view_size or (
-                grid is not None and self.grid is not None and grid != self.grid)):
+        # a centred part of the calibrated grid (--keep-views) keeps its centre view
+        centred = grid is None or self.grid is None or all(
+            g <= c and (c - g) % 2 == 0 for g, c in zip(grid, self.grid))
+        if self.view_size is not None and (size != self.view_size or not centred):
             stated = f"{self.view_size[0]}x{self.view_size[1]} pixels" + (
                 f" in a {self.grid[0]}x{self.grid[1]} grid" if self.grid is not None else "")
             raise ValueError(f"{seen}, but {self.source} is the calibration of views of {stated}; "
                              "expected the calibration of these inputs' camera (the same view "
-                             "size)")
+                             "size" + (", and its grid or a centred part of it, which keeps its "
+                                       "centre view" if self.grid is not None else "") + ")")
         if self.view_size is None:
             cx, cy = self.camera.principal_point
             if not (-0.5 <= cx <= size[0] - 0.5 and -0.5 <= cy <= size[1] - 0.5):

@@ -154,3 +154,85 @@ def test_a_truth_file_field_that_is_no_number_is_refused_naming_file_and_field(
     path.write_text(json.dumps(truth))
     with pytest.raises(ValueError, match=re.escape(f"{path}: {message}")):
         read_camera_file(str(path))
+
+
+def test_a_calibration_of_another_view_size_is_refused_naming_both_sizes_and_the_file(
+        poses, tmp_path, capsys):
+    """Break test of issue 31: a truth file of 320x240 views was taken for 160x120 views
+    (feature files, light fields, liff pose and liff sfm) and gave a pose, silently."""
+    other = tmp_path / "other"
+    assert main(["synth", "poses", "--out", str(other), "--views", "3", "--size", "60", "80",
+                 "--poses", "2", "--seed", "4", "--quiet"]) == 0
+    truth = str(other) + ".truth.json"
+    pair = [str(poses / "pose00.npz"), str(poses / "pose01.npz")]
+    expected = (f"{pair[0]}: views of 160x120 pixels, but --camera-file {truth} is the "
+                f"calibration of views of 80x60 pixels; expected the calibration of these "
+                f"inputs' camera")
+    assert main(["pose", *pair, "--camera-file", truth]) == 1
+    captured = capsys.readouterr()
+    assert expected in captured.err and "R =" not in captured.out
+    features = [str(tmp_path / "a.npz"), str(tmp_path / "b.npz")]
+    for source, out in zip(pair, features):
+        assert main(["detect", source, "--out", out, "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["pose", *features, "--camera-file", truth]) == 1
+    assert (f"{features[0]}: views of 160x120 pixels, but --camera-file {truth} is the "
+            "calibration of views of 80x60 pixels") in capsys.readouterr().err
+    # liff sfm: refused before a database is written
+    workspace = tmp_path / "ws"
+    assert main(["sfm", *pair, "--workspace", str(workspace), "--camera-file", truth]) == 1
+    assert expected in capsys.readouterr().err
+    assert not (workspace / "database.db").exists()
+
+
+def hci_parameters(folder, width=80, height=60, cams=(3, 3)):
+    folder.mkdir(exist_ok=True)
+    (folder / "parameters.cfg").write_text(
+        "[intrinsics]\nfocal_length_mm = 100\nsensor_size_mm = 35\n"
+        f"image_resolution_x_px = {width}\nimage_resolution_y_px = {height}\n"
+        f"[extrinsics]\nbaseline_mm = 40\nfocus_distance_m = 5\nnum_cams_x = {cams[1]}\n"
+        f"num_cams_y = {cams[0]}\n")
+    return folder
+
+
+@pytest.mark.parametrize("width, height, cams, stated", [
+    (160, 120, (4, 4), "160x120 pixels in a 4x4 grid"),
+    (320, 240, (3, 3), "320x240 pixels in a 3x3 grid")])
+def test_an_hci_scene_of_another_view_size_or_grid_is_refused(poses, tmp_path, capsys, width,
+                                                              height, cams, stated):
+    scene = hci_parameters(tmp_path / "scene", width, height, cams)
+    pair = [str(poses / "pose00.npz"), str(poses / "pose01.npz")]
+    assert main(["pose", *pair, "--hci", str(scene)]) == 1
+    assert (f"{pair[0]}: views of 160x120 pixels in a 3x3 grid, but --hci {scene} is the "
+            f"calibration of views of {stated}") in capsys.readouterr().err
+    for cams in ((3, 3), (5, 7)):  # the inputs' own grid, or one they are the centre of
+        hci_parameters(scene, 160, 120, cams)
+        assert main(["pose", *pair, "--hci", str(scene)]) == 0
+        assert "R =" in capsys.readouterr().out
+    hci_parameters(scene, 160, 120, (4, 3))  # 3 views are no centred part of 4
+    assert main(["pose", *pair, "--hci", str(scene)]) == 1
+    assert ("in a 4x3 grid; expected the calibration of these inputs' camera (the same view "
+            "size, and its grid or a centred part of it") in capsys.readouterr().err
+
+
+def test_a_toolbox_file_is_checked_against_the_light_field_it_holds_or_its_principal_point(
+        poses, tmp_path, capsys):
+    """A decoded light field's .mat states the view size and grid (its LF's header); a
+    calibration without one (CalInfo.json, a text H) must at least put the principal
+    point inside the inputs' views."""
+    H = toolbox_H(h11=3e-4, views=3, pixels=301)  # principal point (157, 146)
+    pair = [str(poses / "pose00.npz"), str(poses / "pose01.npz")]
+    decoded = tmp_path / "IMG_0001__Decoded.mat"
+    scipy.io.savemat(decoded, {"LF": np.zeros((5, 5, 434, 625, 4), np.uint16),
+                               "RectOptions": {"RectCamIntrinsicsH": H}}, do_compression=True)
+    assert main(["pose", *pair, "--camera-file", str(decoded)]) == 1
+    assert (f"{pair[0]}: views of 160x120 pixels in a 3x3 grid, but --camera-file {decoded} is "
+            "the calibration of views of 625x434 pixels in a 5x5 grid") in capsys.readouterr().err
+    calinfo = tmp_path / "CalInfo.json"
+    calinfo.write_text(json.dumps({"EstCamIntrinsicsH": H.tolist()}))
+    text = tmp_path / "H.txt"
+    np.savetxt(text, H)
+    for flag, path in (("--camera-file", calinfo), ("--lftoolbox", text)):
+        assert main(["pose", *pair, flag, str(path)]) == 1
+        assert (f"{pair[0]}: views of 160x120 pixels, but the principal point (157, 146) of "
+                f"{flag} {path} lies outside them") in capsys.readouterr().err

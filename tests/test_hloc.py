@@ -467,6 +467,9 @@ def test_an_image_pair_of_one_name_is_refused(arc, tmp_path, capsys):
 
 
 def test_hloc_images_are_not_overwritten_unasked(arc, tmp_path, capsys):
+    """An image in --hloc-images that the features file holds no features of (another
+    features file's export, or the user's) is refused, and with --overwrite replaced
+    and named."""
     from liff.cli import main
 
     images = tmp_path / "images"
@@ -480,7 +483,12 @@ def test_hloc_images_are_not_overwritten_unasked(arc, tmp_path, capsys):
     assert (images / "pose00.png").read_bytes() == b"someone else's"
     assert not (tmp_path / "f").exists() and not (tmp_path / "feats.h5").exists()
     assert main(args + ["--overwrite"]) == 0
+    # break test of issue 29: the image was replaced without a word; named as groups are
+    assert (f"hloc: replaced {images / 'pose00.png'} (--overwrite): files --hloc-images held "
+            f"that were not centre views exported with {tmp_path / 'feats.h5'}"
+            in capsys.readouterr().err)
     assert main(args) == 0  # now its own export: a re-run is no clash
+    assert "hloc: replaced" not in capsys.readouterr().err
     assert cv2.imread(str(images / "pose00.png"), cv2.IMREAD_UNCHANGED).ndim == 2
 
 
@@ -564,3 +572,21 @@ def test_a_features_file_that_is_no_hdf5_file_is_refused_clearly(arc, tmp_path, 
     err = capsys.readouterr().err
     assert ("is a folder" if kind == "folder" else "is not an HDF5 file") in err
     assert "Unable to" not in err and not (tmp_path / "m.h5").exists()
+
+
+def test_images_of_another_features_file_are_named_when_replaced(arc, tmp_path):
+    """Break test of issue 29: exporting into the images folder of another features file
+    with overwrite replaced its images silently; refused without overwrite, and named
+    in Added.replaced_images with it. The features file's own images are not named."""
+    from liff.hloc import add_feature_files
+
+    images = tmp_path / "images"
+    pose = arc / "f" / "pose00.npz"
+    first = add_feature_files(tmp_path / "a.h5", [pose], images)
+    assert first.replaced_images == [] and (images / "pose00.png").exists()
+    with pytest.raises(ValueError, match=r"pose00.png exist\(s\) and .*b.h5 holds no features"):
+        add_feature_files(tmp_path / "b.h5", [pose], images)
+    assert not (tmp_path / "b.h5").exists()
+    second = add_feature_files(tmp_path / "b.h5", [pose], images, overwrite=True)
+    assert second.replaced_images == [str(images / "pose00.png")]
+    assert add_feature_files(tmp_path / "b.h5", [pose], images, overwrite=True).replaced_images == []

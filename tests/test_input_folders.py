@@ -300,3 +300,89 @@ def test_every_list_line_is_split_as_a_shell_would(tmp_path):
                  r"\(quoted if it holds spaces\)")  # unquoted spaces: two words
     list_refused(todo, f"'{plain}\n",
                  rf"{todo}, line 1: No closing quotation")
+
+
+def test_a_light_field_toolbox_folder_takes_only_the_mat_files_holding_a_light_field(tmp_path):
+    """Break test of issue 31: CalInfo.mat and the toolbox's other non-light-field .mat
+    files (v5 and v7.3) were taken as inputs and became failed rows. A .mat is an input
+    only when its header holds a 4-D or 5-D array (or a struct with a field LF)."""
+    import scipy.io
+
+    from lfhelpers import write_mat_v73
+
+    folder = tmp_path / "toolbox"
+    folder.mkdir()
+    H = np.eye(5)
+    scipy.io.savemat(folder / "CalInfo.mat", {"EstCamIntrinsicsH": H, "CalInfo": {
+        "EstCamDistortionV": np.zeros(5), "LensletGridModel": {"HSpacing": 14.0}}})
+    scipy.io.savemat(folder / "CheckerboardCorners.mat", {"CheckerboardCorners": np.zeros((3, 4, 2))},
+                     do_compression=True)
+    write_mat_v73(folder / "CalInfo73.mat", {"EstCamIntrinsicsH": H, "RectOptions": {"Precision": 1.0}})
+    scipy.io.savemat(folder / "IMG_0001__Decoded.mat", {
+        "LF": np.zeros((3, 3, 8, 8, 4), np.uint16), "RectOptions": {"RectCamIntrinsicsH": H}},
+        do_compression=True)
+    write_mat_v73(folder / "IMG_0002__Decoded.mat", {"LF": np.zeros((3, 3, 8, 8, 4), np.uint16)})
+    scipy.io.savemat(folder / "hci_struct.mat", {"LF": {"LF": np.zeros((3, 3, 8, 8, 3)),
+                                                         "disp_lowres": np.zeros((8, 8))}})
+    entries = walk(str(folder))
+    assert taken(entries) == [("IMG_0001__Decoded.mat", "mat"), ("IMG_0002__Decoded.mat", "mat"),
+                              ("hci_struct.mat", "mat")]
+    left_out = {os.path.basename(e.path): e.why for e in entries if not e.is_input}
+    assert sorted(left_out) == ["CalInfo.mat", "CalInfo73.mat", "CheckerboardCorners.mat"]
+    assert all("holding no 4-D or 5-D array" in why for why in left_out.values())
+
+
+def test_a_mat_files_header_is_read_without_its_data(tmp_path):
+    """The check reads headers only: of an 8 MB compressed variable, no more than the
+    compressed pieces (16 KiB each) that inflate to its first 64 KiB."""
+    import scipy.io
+
+    from liff.io import _matv5
+
+    path = tmp_path / "big.mat"
+    rng = np.random.default_rng(0)
+    scipy.io.savemat(path, {"LF": rng.random((10, 10, 100, 100, 1)), "other": np.zeros((2, 2))},
+                     do_compression=True)
+
+    class Counting:
+        def __init__(self, f):
+            self.f, self.read_bytes = f, 0
+
+        def read(self, n=-1):
+            data = self.f.read(n)
+            self.read_bytes += len(data)
+            return data
+
+        def __getattr__(self, name):
+            return getattr(self.f, name)
+
+    with open(path, "rb") as f:
+        counting = Counting(f)
+        headers = _matv5.variable_headers(counting)
+    assert [(name, dims) for name, dims, *_ in headers] == [("LF", (10, 10, 100, 100, 1)),
+                                                            ("other", (2, 2))]
+    assert counting.read_bytes < 2 * _matv5.HEADER_BYTES < os.path.getsize(path) // 50
+
+
+@pytest.mark.parametrize("case", ["collision", "output is input", "file for many", "manifest",
+                                  "hloc images alone"])
+def test_dry_run_refuses_exactly_what_the_run_refuses(tmp_path, capsys, monkeypatch, case):
+    """Break test of issue 31: two inputs that write one output were listed by --dry-run
+    (exit 0) while the run refused them; one function (liff.cli.detect.checked_plan)
+    now decides both."""
+    monkeypatch.chdir(tmp_path)
+    a = light_field_npz(tmp_path / "data" / "x" / "scene.npz")
+    b = light_field_npz(tmp_path / "data" / "y" / "scene.npz")
+    (tmp_path / "notes.csv").write_text("mine\n")
+    argv = {"collision": [str(tmp_path / "data"), "--out", "feats"],
+            "output is input": ["data/x/scene.npz", "--out", str(a)],
+            "file for many": [str(a), str(b), "--out", "one.npz"],
+            "manifest": [str(a), "--out", "f.npz", "--manifest", "notes.csv"],
+            "hloc images alone": [str(a), "--out", "f.npz", "--hloc-images", "imgs"]}[case]
+    assert main(["detect", *argv, "--dry-run"]) == 1
+    dry = capsys.readouterr().err
+    assert main(["detect", *argv]) == 1
+    real = capsys.readouterr().err
+    assert dry == real and dry.startswith("liff detect: ")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["data", "notes.csv"]
+    assert (tmp_path / "notes.csv").read_text() == "mine\n"

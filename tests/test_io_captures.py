@@ -478,7 +478,7 @@ def test_hdf5_dataset_choice_and_errors(tmp_path):
     raises_naming(tmp_path / "two.h5", r"datasets \['a', 'b'\]; expected one named 'LF', a single "
                   r"dataset, or key=", io.read_hdf5, tmp_path / "two.h5")
     write_mat_v73(tmp_path / "m.h5", {"LF": lf})
-    raises_naming(tmp_path / "m.h5", r"a MATLAB v7\.3 file .* read it with format='mat'",
+    raises_naming(tmp_path / "m.h5", r"a MATLAB v7\.3 file .* read it as a \.mat file \(format='mat'\)",
                   io.read_hdf5, tmp_path / "m.h5")
     np.testing.assert_array_equal(io.read_light_field(tmp_path / "m.h5", format="mat").light_field, lf)
     (tmp_path / "junk.h5").write_bytes(b"junk")

@@ -278,9 +278,12 @@ def test_eslf_errors(tmp_path):
     raises_naming(tmp_path / "small.png", r"cannot tell the lenslet size from the image \(20x10; "
                   r".*expected an ESLF image whose lenslets show .* or the size given \(n=N\)",
                   io.read_eslf, tmp_path / "small.png")
-    raises_naming(tmp_path / "small.png", r"n = 0; expected an integer >= 1",
+    raises_naming(tmp_path / "small.png", r"n = 0; expected a whole number of pixels >= 2",
                   io.read_eslf, tmp_path / "small.png", n=0)
-    raises_naming(tmp_path / "small.png", r"n = '14'; expected an integer >= 1",
+    raises_naming(tmp_path / "small.png", r"n = 1; expected a whole number of pixels >= 2 "
+                  r"\(each lenslet holds n x n views; n = 1 is an ordinary image\)",
+                  io.read_eslf, tmp_path / "small.png", n=1)
+    raises_naming(tmp_path / "small.png", r"n = '14'; expected a whole number of pixels >= 2",
                   io.read_eslf, tmp_path / "small.png", n="14")
     raises_naming(tmp_path / "absent.png", r"no such file; expected an image",
                   io.read_eslf, tmp_path / "absent.png")
@@ -476,8 +479,8 @@ def test_keep_must_be_whole_numbers(tmp_path, keep, expected):
 def test_lenslet_size_follows_the_same_rule(tmp_path):
     lf = coded_lf((3, 3, 4, 5, 3))
     for bad in (2.5, float("inf"), float("nan"), True, "4"):
-        raises_naming(tmp_path / "e.png", rf"lenslet size n = {re.escape(repr(bad))}; expected an "
-                      r"integer >= 1", io.read_eslf, tmp_path / "e.png", n=bad)
+        raises_naming(tmp_path / "e.png", rf"lenslet size n = {re.escape(repr(bad))}; expected a "
+                      r"whole number of pixels >= 2", io.read_eslf, tmp_path / "e.png", n=bad)
     raises_naming(tmp_path / "x.png", r"n = 2\.0; expected an integer >= 3",
                   io.write_eslf, tmp_path / "x.png", lf, n=2.0)
     raises_naming(tmp_path / "x.png", r"n = 4\.5; expected an integer >= 3",

@@ -758,8 +758,12 @@ def test_camera_options_read_a_toolbox_matrix_and_refuse_bad_files(tmp_path):
         camera_from_args(parser.parse_args(["--lftoolbox", str(tmp_path / "bad.txt")]))
     with pytest.raises(ValueError, match="no such file"):
         camera_from_args(parser.parse_args(["--lftoolbox", str(tmp_path / "none.txt")]))
-    with pytest.raises(ValueError, match="focal_length"):
+    with pytest.raises(ValueError, match=r"^--camera F \(focal length\) = -1.0; expected a "
+                                         "positive finite number"):
         camera_from_args(parser.parse_args(["--camera", "-1", "0.1", "0", "0"]))
+    with pytest.raises(ValueError, match=r"^--focus-distance = -3.0; expected a positive"):
+        camera_from_args(parser.parse_args(["--camera", "1", "0.1", "0", "0",
+                                            "--focus-distance", "-3"]))
 
 
 def test_transfer_distance_of_a_point_in_capture_2s_image_plane_is_no_match():

@@ -4,6 +4,7 @@ per finished input, a line every so often while one step runs long, nothing with
 
 from __future__ import annotations
 
+import re
 import time
 
 import numpy as np
@@ -67,3 +68,16 @@ def test_liff_progress_forces_the_bar(monkeypatch):
     bar.close()
     monkeypatch.delenv("LIFF_PROGRESS")
     assert isinstance(progress.progress(desc="x", total=1), progress.LineProgress)
+
+
+def test_a_finished_inputs_line_names_it(tmp_path, capsys, two_inputs):
+    """Break test: 'liff detect: 1/2 file(s) done, 0 s' did not say which input had
+    finished (with --workers the order is not the command line's)."""
+    for workers in ("1", "2"):
+        assert main(["detect", *two_inputs, "--out", str(tmp_path / f"out{workers}"),
+                     "--workers", workers]) == 0
+        lines = [line for line in capsys.readouterr().err.splitlines() if "file(s) done" in line]
+        named = [re.search(r"liff detect: (\d)/2 file\(s\) done, last (\S+), \d+ s$", line)
+                 for line in lines]
+        assert all(named) and [m.group(1) for m in named] == ["1", "2"]
+        assert sorted(m.group(2) for m in named) == sorted(two_inputs)

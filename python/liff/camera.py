@@ -47,6 +47,24 @@ def _positive(name: str, value, allow_inf: bool = False) -> float:
     return value
 
 
+def read_hci_parameters(path: PathLike) -> Tuple[dict, str]:
+    """(``{section: {key: text}}``, the file's path) of an HCI scene's parameters.cfg,
+    given the scene folder or the file; ValueError naming the file if it is missing or
+    unreadable."""
+    path = os.fspath(path)
+    cfg_path = os.path.join(path, "parameters.cfg") if os.path.isdir(path) else path
+    if not os.path.isfile(cfg_path):
+        raise ValueError(f"{cfg_path}: no such file; expected an HCI scene folder or its "
+                         "parameters.cfg")
+    cfg = configparser.ConfigParser(interpolation=None)
+    try:
+        with open(cfg_path, encoding="utf-8") as f:
+            cfg.read_file(f)
+    except (configparser.Error, UnicodeDecodeError) as error:
+        raise ValueError(f"{cfg_path}: unreadable ({error}); expected an HCI parameters.cfg") from None
+    return {s: dict(cfg[s]) for s in cfg.sections()}, cfg_path
+
+
 def keypoint_geometry(keypoints: Sequence[cv2.KeyPoint]) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """What the camera model measures of LiFF keypoints: positions (N, 2), centre-view
     pixels; sizes (N,), pixels; slopes (N,), pixels per view step; all float64.
@@ -247,18 +265,8 @@ class LightFieldCamera:
             If the file is missing or unreadable, or an entry is missing or out of range
             (the message names the file and the entry).
         """
-        path = os.fspath(path)
-        cfg_path = os.path.join(path, "parameters.cfg") if os.path.isdir(path) else path
-        if not os.path.isfile(cfg_path):
-            raise ValueError(f"{cfg_path}: no such file; expected an HCI scene folder or its "
-                             "parameters.cfg")
-        cfg = configparser.ConfigParser(interpolation=None)
-        try:
-            with open(cfg_path, encoding="utf-8") as f:
-                cfg.read_file(f)
-        except (configparser.Error, UnicodeDecodeError) as error:
-            raise ValueError(f"{cfg_path}: unreadable ({error}); expected an HCI parameters.cfg") from None
-        return cls.from_hci_parameters({s: dict(cfg[s]) for s in cfg.sections()}, cfg_path)
+        parameters, cfg_path = read_hci_parameters(path)
+        return cls.from_hci_parameters(parameters, cfg_path)
 
     @classmethod
     def from_hci_parameters(cls, parameters: dict, source: str = "parameters.cfg") -> "LightFieldCamera":

@@ -526,11 +526,13 @@ def updated(path: "os.PathLike") -> Iterator[str]:
 
 class Added(NamedTuple):
     """What :func:`add_feature_files` did: the image names, in the order of the feature
-    files, and those of them whose features were replaced by other ones (matches made
-    from the old ones are stale)."""
+    files, those of them whose features were replaced by other ones (matches made from
+    the old ones are stale), and the paths of the files in the image folder it replaced
+    that were not images exported with the features file (``overwrite``)."""
 
     names: List[str]
     replaced: List[str]
+    replaced_images: List[str] = []
 
 
 def feature_file_group(features) -> Tuple[dict, np.ndarray]:
@@ -604,18 +606,27 @@ def check_export(path: "os.PathLike", feature_paths: Sequence["os.PathLike"],
         except ValueError as error:
             raise ValueError(f"{os.fspath(feature_path)}: {error}") from None
     if image_dir is not None and not overwrite:
-        held = set()
-        if os.path.exists(path):
-            with h5py.File(path, "r") as f:
-                held = {name for name in names if name in f}
-        foreign = [os.path.join(image_dir, name) for name in names if name not in held
-                   and os.path.lexists(os.path.join(image_dir, name))]
+        foreign = foreign_images(path, names, image_dir)
         if foreign:
             raise ValueError(f"{', '.join(foreign)} exist(s) and {os.fspath(path)} holds no "
                              "features of them (not images liff exported with it); expected "
                              "new image names in the --hloc-images folder, or --overwrite "
                              "(overwrite=True) to replace them")
     return names
+
+
+def foreign_images(path: "os.PathLike", names: Sequence[str], image_dir: "os.PathLike") -> List[str]:
+    """The paths ``image_dir``/name of ``names`` where a file exists that the features
+    file ``path`` holds no features of: not an image liff exported with it (another
+    features file's, or the user's own)."""
+    import h5py
+
+    held = set()
+    if os.path.exists(path):
+        with h5py.File(path, "r") as f:
+            held = {name for name in names if name in f}
+    return [os.path.join(image_dir, name) for name in names if name not in held
+            and os.path.lexists(os.path.join(image_dir, name))]
 
 
 def add_feature_files(path: "os.PathLike", feature_paths: Sequence["os.PathLike"],
@@ -643,7 +654,9 @@ def add_feature_files(path: "os.PathLike", feature_paths: Sequence["os.PathLike"
     Returns
     -------
     added : Added
-        The image names, and those whose features were replaced.
+        The image names, those whose features were replaced, and the files of
+        ``image_dir`` replaced that were not images exported with ``path`` (only with
+        ``overwrite``: else refused).
 
     Raises
     ------
@@ -675,10 +688,11 @@ def add_feature_files(path: "os.PathLike", feature_paths: Sequence["os.PathLike"
                          "same features, or --overwrite (overwrite=True) to replace them and "
                          "then match those images again; nothing was written to it"
                          + (" or to the images folder" if image_dir is not None else ""))
+    foreign = [] if image_dir is None else foreign_images(path, names, image_dir)
     with updated(path) as partial:
         for name, (datasets, view) in zip(names, groups):
             _write_features_group(partial, name, datasets, True)
             if image_dir is not None:
                 with atomic_output(os.path.join(image_dir, name)) as image:
                     write_image(image, grey_uint8_image(view))
-    return Added(names, replaced)
+    return Added(names, replaced, foreign)

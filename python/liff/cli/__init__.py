@@ -9,12 +9,15 @@ missing optional dependency (``liff sfm`` without pycolmap).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import signal
 import sys
 import threading
+import warnings
 from typing import List, Optional
 
 from .. import __version__, opencvVersion
+from .._warnings import LiffWarning
 from . import colmap, common, demo, detect, match, pose, progress, synth
 
 COMMANDS = (detect, match, pose, colmap, synth, demo)
@@ -49,13 +52,28 @@ def _terminate(signum, frame):
     raise Terminated
 
 
+def _warning_line(command: str):
+    """A ``warnings.showwarning`` printing one line, ``liff COMMAND: warning: MESSAGE``
+    with the flags named (not Python's ``file:line: Category: message`` and the source
+    line); a warning that is not liff's keeps its category's name."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        kind = "" if issubclass(category, LiffWarning) else f"{category.__name__}: "
+        print(f"liff {command}: warning: {kind}{common.name_flags(str(message))}",
+              file=file or sys.stderr, flush=True)
+    return show
+
+
 def main(argv: Optional[List[str]] = None) -> int:
     args = build_parser().parse_args(argv)
     progress.QUIET = args.quiet
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
     try:
-        return int(args.run(args) or 0)
+        with warnings.catch_warnings() if in_main_thread else contextlib.nullcontext():
+            if in_main_thread:  # (the warnings module's state is the process's)
+                warnings.showwarning = _warning_line(args.command)
+                warnings.simplefilter("always", LiffWarning)  # each input's, not the first only
+            return int(args.run(args) or 0)
     except Terminated:
         print(f"liff {args.command}: terminated", file=sys.stderr)
         return 128 + signal.SIGTERM

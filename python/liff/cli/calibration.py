@@ -7,12 +7,13 @@ import argparse
 import json
 import math
 import os
-from typing import Optional
+from dataclasses import dataclass
+from typing import Optional, Tuple
 
 import numpy as np
 
 from .._paths import refuse_special
-from ..camera import LightFieldCamera
+from ..camera import LightFieldCamera, read_hci_parameters
 
 
 def add_camera_options(parser: argparse.ArgumentParser) -> None:
@@ -39,20 +40,123 @@ def add_camera_options(parser: argparse.ArgumentParser) -> None:
                             "parallel views)")
 
 
-def camera_from_args(args: argparse.Namespace) -> Optional[LightFieldCamera]:
-    """The camera the options name, or None when none is given."""
+@dataclass(frozen=True)
+class Calibration:
+    """A camera, where it came from, and what that source states of the light fields it
+    calibrates (None where it states nothing).
+
+    Attributes
+    ----------
+    camera : LightFieldCamera
+    source : str
+        As the user gave it: ``--camera-file poses.truth.json``.
+    view_size : (width, height) or None
+        Pixels of a view.
+    grid : (T, S) or None
+        Views.
+    """
+
+    camera: LightFieldCamera
+    source: str
+    view_size: Optional[Tuple[int, int]] = None
+    grid: Optional[Tuple[int, int]] = None
+
+    def check(self, path: str, shape, grid_known: bool = True) -> None:
+        """Refuses the input ``path`` of light field shape ``shape`` ((T, S, V, U[, C]),
+        or a view's (V, U[, C]): a 1x1 light field, or with ``grid_known=False`` a view
+        of a grid not known) unless its views are of the size the calibration states, in
+        its grid or a centred part of it (``--keep-views``: the same centre view). A
+        calibration that states no size must at least have its principal point inside
+        the views.
+
+        Raises
+        ------
+        ValueError
+            Naming the input, its view size, the calibration's source and its size.
+        """
+        shape = tuple(int(v) for v in shape)
+        many = len(shape) >= 4
+        size = (shape[3], shape[2]) if many else (shape[1], shape[0])
+        grid = shape[:2] if many else (1, 1) if grid_known else None
+        seen = f"{path}: views of {size[0]}x{size[1]} pixels" + (
+            f" in a {grid[0]}x{grid[1]} grid" if grid is not None and self.grid is not None else "")
+        # a centred part of the calibrated grid (--keep-views) keeps its centre view
+        centred = grid is None or self.grid is None or all(
+            g <= c and (c - g) % 2 == 0 for g, c in zip(grid, self.grid))
+        if self.view_size is not None and (size != self.view_size or not centred):
+            stated = f"{self.view_size[0]}x{self.view_size[1]} pixels" + (
+                f" in a {self.grid[0]}x{self.grid[1]} grid" if self.grid is not None else "")
+            raise ValueError(f"{seen}, but {self.source} is the calibration of views of {stated}; "
+                             "expected the calibration of these inputs' camera (the same view "
+                             "size" + (", and its grid or a centred part of it, which keeps its "
+                                       "centre view" if self.grid is not None else "") + ")")
+        if self.view_size is None:
+            cx, cy = self.camera.principal_point
+            if not (-0.5 <= cx <= size[0] - 0.5 and -0.5 <= cy <= size[1] - 0.5):
+                raise ValueError(f"{seen}, but the principal point ({cx:g}, {cy:g}) of "
+                                 f"{self.source} lies outside them; expected the calibration of "
+                                 "these inputs' camera (a principal point inside the views)")
+
+
+def check_feature_file(calibration: Calibration, path: str, features) -> None:
+    """:meth:`Calibration.check` of a feature file: the light field's shape it records,
+    else its centre view (grid unknown); a file with neither is not checked."""
+    shape = features.meta.get("shape")
+    if shape is not None:
+        calibration.check(path, shape)
+    elif features.centre_view is not None:
+        calibration.check(path, features.centre_view.shape, grid_known=False)
+
+
+#: LightFieldCamera's keywords, as the command line gives their values
+CAMERA_FLAGS = {"focal_length": "--camera F (focal length)", "baseline": "--camera B (baseline)",
+                "principal_point": "--camera CX CY (principal point)",
+                "focus_distance": "--focus-distance"}
+
+
+def calibration_from_args(args: argparse.Namespace) -> Optional[Calibration]:
+    """The calibration the options name, or None when none is given."""
     if args.focus_distance != math.inf and args.camera is None:  # (a camera file has its own)
         raise ValueError("--focus-distance goes with --camera")
     if args.camera is not None:
         f, b, cx, cy = args.camera
-        return LightFieldCamera(f, b, (cx, cy), args.focus_distance)
+        try:
+            camera = LightFieldCamera(f, b, (cx, cy), args.focus_distance)
+        except ValueError as error:  # named as the command line's values, not the keywords
+            message = str(error)
+            for keyword, flag in CAMERA_FLAGS.items():
+                message = message.replace(keyword, flag)
+            raise ValueError(message) from None
+        return Calibration(camera, "--camera " + " ".join(f"{v:g}" for v in args.camera))
     if args.hci is not None:
-        return LightFieldCamera.from_hci(args.hci)
+        return read_hci_calibration(args.hci)
     if args.lftoolbox is not None:
-        return LightFieldCamera.from_lftoolbox(read_matrix(args.lftoolbox))
+        return Calibration(LightFieldCamera.from_lftoolbox(read_matrix(args.lftoolbox)),
+                           f"--lftoolbox {args.lftoolbox}")
     if getattr(args, "camera_file", None) is not None:
-        return read_camera_file(args.camera_file)
+        return read_calibration(args.camera_file)
     return None
+
+
+def camera_from_args(args: argparse.Namespace) -> Optional[LightFieldCamera]:
+    """The camera the options name, or None when none is given."""
+    calibration = calibration_from_args(args)
+    return None if calibration is None else calibration.camera
+
+
+def read_hci_calibration(path: str) -> Calibration:
+    """``--hci PATH``: the scene's camera, its views' size and, where parameters.cfg
+    states it (num_cams_y, num_cams_x), its grid."""
+    parameters, cfg_path = read_hci_parameters(path)
+    camera = LightFieldCamera.from_hci_parameters(parameters, cfg_path)
+    intrinsics, extrinsics = parameters.get("intrinsics", {}), parameters.get("extrinsics", {})
+    size = (int(intrinsics["image_resolution_x_px"]), int(intrinsics["image_resolution_y_px"]))
+    try:
+        grid: Optional[Tuple[int, int]] = (int(extrinsics["num_cams_y"]),
+                                           int(extrinsics["num_cams_x"]))
+    except (KeyError, ValueError):
+        grid = None
+    return Calibration(camera, f"--hci {path}", size, grid)
 
 
 #: the fields of liff synth's truth file that make its camera
@@ -75,7 +179,16 @@ def _field(data, dotted: str):
 
 def read_camera_file(path: str) -> LightFieldCamera:
     """The camera of a calibration file (``--camera-file``): liff synth's truth JSON,
-    or the Light Field Toolbox's JSON (``CalInfo.json``) or .mat output holding H.
+    or the Light Field Toolbox's JSON (``CalInfo.json``) or .mat output holding H
+    (:func:`read_calibration`)."""
+    return read_calibration(path).camera
+
+
+def read_calibration(path: str) -> Calibration:
+    """The calibration of a camera file (``--camera-file``): liff synth's truth JSON
+    (its views' size: ``intrinsics.width``, ``intrinsics.height``), or the Light Field
+    Toolbox's JSON (``CalInfo.json``, no size) or .mat output holding H (the size and
+    grid of the light field ``LF`` beside it, from its header).
 
     Raises
     ------
@@ -86,6 +199,7 @@ def read_camera_file(path: str) -> LightFieldCamera:
     if not os.path.isfile(path):
         raise ValueError(f"{path}: no such file; expected a camera file: {EXPECTED}")
     data = _load_mapping(path)
+    source = f"--camera-file {path}"
     if any(_field(data, name) is not None for name in ("intrinsics", "baseline", "focus_depth")):
         values = {name: _field(data, name) for name in SYNTH_FIELDS}
         missing = [name for name, value in values.items() if value is None]
@@ -97,18 +211,36 @@ def read_camera_file(path: str) -> LightFieldCamera:
                 raise ValueError(f"{path}: {name} is {json.dumps(value)}; expected a number")
         f, b, cx, cy, focus = (float(values[name]) for name in SYNTH_FIELDS)
         try:
-            return LightFieldCamera(f, b, (cx, cy), focus)
+            camera = LightFieldCamera(f, b, (cx, cy), focus)
         except ValueError as error:
             raise ValueError(f"{path}: {error}") from None
+        size = tuple(_field(data, name) for name in ("intrinsics.width", "intrinsics.height"))
+        whole = all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in size)
+        return Calibration(camera, source, size if whole else None)
     for name in TOOLBOX_FIELDS:
         H = _field(data, name)
         if H is not None:
             try:
-                return LightFieldCamera.from_lftoolbox(np.asarray(H, dtype=float))
+                camera = LightFieldCamera.from_lftoolbox(np.asarray(H, dtype=float))
             except (TypeError, ValueError) as error:
                 raise ValueError(f"{path}: {name}: {error}") from None
+            shape = _light_field_shape(path) if path.lower().endswith(".mat") else None
+            return (Calibration(camera, source) if shape is None else
+                    Calibration(camera, source, (shape[3], shape[2]), (shape[0], shape[1])))
     raise ValueError(f"{path}: none of {', '.join(SYNTH_FIELDS + TOOLBOX_FIELDS)}; expected "
                      f"{EXPECTED}")
+
+
+def _light_field_shape(path: str) -> Optional[tuple]:
+    """MATLAB's (t, s, v, u[, c]) of the light field a .mat camera file holds beside H
+    (its variable ``LF``, else its only 4-D or 5-D array), from the headers; None if
+    it holds none."""
+    from ..io.mat import LF_VARIABLE, variable_shapes
+
+    arrays = [(name, shape) for name, shape, kind in variable_shapes(path) or ()
+              if len(shape) in (4, 5) and not isinstance(kind, tuple)]
+    named = [shape for name, shape in arrays if name == LF_VARIABLE]
+    return named[0] if named else arrays[0][1] if len(arrays) == 1 else None
 
 
 def _matrices_v73(path: str) -> dict:

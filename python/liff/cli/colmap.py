@@ -16,7 +16,7 @@ from ..keypoint_rows import keypoints_to_rows, rows_to_keypoints
 from ..feature_file import centre_view, load_features
 from ..outputs import refuse_inputs
 from . import common
-from .calibration import add_camera_options, camera_from_args
+from .calibration import add_camera_options, calibration_from_args
 from .match import is_feature_file
 
 METRICS = (("registered images", "registered", "{:.0%}"),
@@ -74,6 +74,12 @@ def add_parser(sub) -> None:
 def features_for_colmap(path: str, options: dict, preprocess: bool, parameters: dict):
     """(centre view uint8 grey, keypoint rows (N, 7), descriptors) of one input; arrays
     only, so that worker processes can send them back."""
+    return _features_and_shape(path, options, preprocess, parameters)[:3]
+
+
+def _features_and_shape(path: str, options: dict, preprocess: bool, parameters: dict):
+    """:func:`features_for_colmap` and the light field's shape (T, S, V, U[, C]), or
+    None for a feature file that does not record it."""
     from .. import colmap
 
     if is_feature_file(path):
@@ -81,25 +87,29 @@ def features_for_colmap(path: str, options: dict, preprocess: bool, parameters: 
         if features.centre_view is None:
             raise ValueError("the feature file holds no centre view; expected one from liff detect")
         view, keypoints, descriptors = features.centre_view, features.keypoints, features.descriptors
+        shape = features.meta.get("shape")
     else:
         light_field = common.load_light_field(path, options, preprocess=False)
+        shape = light_field.shape
         if preprocess:  # the paper's 8-bit greyscale, which SIFT on the centre view also gets
             light_field = colmap.prepare_light_field(light_field)
         keypoints, descriptors = common.make_detector(parameters).detectAndCompute(light_field, None)
         view = centre_view(light_field)
     view = colmap.grey_uint8_image(view)  # grey uint8, as COLMAP wants
-    return view, keypoints_to_rows(keypoints), descriptors
+    return view, keypoints_to_rows(keypoints), descriptors, None if shape is None else tuple(shape)
 
 
 def write(args: argparse.Namespace, database: str, image_dir: str, focal=None,
-          principal_point=None, images_out=None) -> int:
+          principal_point=None, images_out=None, calibration=None) -> int:
     """Detects (or loads) features of every input and writes the database; returns the
     number of inputs that failed (``liff colmap``: any failure is an error, and nothing
     is written; ``liff sfm`` goes on with the others and says how many the database
     holds). Inputs of different view sizes are refused, naming them, before anything is
     written (no workspace is made). ``focal`` and ``principal_point`` (OpenCV pixels)
     default to ``--focal`` and the image centre; the images written are appended to
-    ``images_out`` if given."""
+    ``images_out`` if given. ``calibration`` (:class:`.calibration.Calibration`): inputs
+    of another view size (or grid) than it states are refused before anything is
+    written."""
     from .. import colmap
 
     names = [common.output_name(path, ".png") for path in args.paths]
@@ -114,13 +124,18 @@ def write(args: argparse.Namespace, database: str, image_dir: str, focal=None,
                          "file or folder names")
     jobs = [(item.path, item.options, args.preprocess, common.detector_parameters(args))
             for item in args.inputs]
-    results, failures = common.run_batch(features_for_colmap, jobs, args.workers, args.command,
+    results, failures = common.run_batch(_features_and_shape, jobs, args.workers, args.command,
                                          label=lambda job: job[0])
     images, read = [], []
     for path, name, result in zip(args.paths, names, results):
         if result is None:
             continue
-        view, rows, descriptors = result
+        view, rows, descriptors, shape = result
+        if calibration is not None:  # before anything is written
+            if shape is None:
+                calibration.check(path, view.shape, grid_known=False)
+            else:
+                calibration.check(path, shape)
         images.append(colmap.FeatureImage(name, view, rows_to_keypoints(rows), descriptors))
         read.append(path)
     if not images:
@@ -232,7 +247,8 @@ def run_sfm(args: argparse.Namespace) -> int:
     image_dir = os.path.join(args.workspace, "images")
     sparse = os.path.join(args.workspace, "sparse")
     refuse_inputs([database, image_dir, sparse], common.protected_inputs(args), "--workspace")
-    camera = camera_from_args(args)
+    calibration = calibration_from_args(args)
+    camera = None if calibration is None else calibration.camera
     matching = args.matching or ("pose" if camera is not None else "colmap")
     if matching == "pose" and camera is None:
         raise ValueError("--matching pose needs the camera's calibration; expected --camera, "
@@ -248,7 +264,7 @@ def run_sfm(args: argparse.Namespace) -> int:
         failures = write(args, database, image_dir, images_out=images)
     else:  # the calibration's focal length and principal point are COLMAP's prior
         failures = write(args, database, image_dir, args.focal or camera.focal_length,
-                         camera.principal_point, images_out=images)
+                         camera.principal_point, images_out=images, calibration=calibration)
     with common.step(f"liff sfm: matching every pair of {len(args.paths) - failures} images"
                      + (" by their metric pose" if matching == "pose" else "")):
         if matching == "pose":

@@ -162,6 +162,7 @@ def keyword_flags() -> Dict[str, str]:
 def name_flags(message: str) -> str:
     """``message`` with the readers' and the detector's Python keywords named as the
     command line's flags: "keep = 20" -> "--keep-views = 20", "(n=N)" -> "(--lenslet N)",
+    "format='mosaic'" -> "--format mosaic",
     "option(s) key do not apply ...; expected n, keep" -> "option(s) --key ...; expected
     --lenslet, --keep-views"."""
     from ..io.formats import OPTIONS
@@ -172,6 +173,9 @@ def name_flags(message: str) -> str:
         return re.sub(r"(?<![\w-])\w+", lambda word: OPTIONS[word.group(0)].flag
                       if word.group(0) in OPTIONS else word.group(0), match.group(0))
 
+    # format='mosaic' (the Python keyword): --format mosaic, once where both are named
+    message = re.sub(r"format='(\w+)', --format \1\b", r"--format \1", message)
+    message = re.sub(r"(?<![\w.-])format='(\w+)'", r"--format \1", message)
     if " do not apply to format " in message:  # liff.io.read_light_field's option check
         message = re.sub(r"(?<=option\(s\) ).*", in_list, message, flags=re.S)
     for option in OPTIONS.values():  # "n=N" as the command line writes it: "--lenslet N"
@@ -243,10 +247,15 @@ def make_detector(parameters: dict) -> LiFF:
 
 def read_input(path: str, options: dict, preprocess: bool) -> Tuple[np.ndarray, dict]:
     """Reads a light field (any liff.io format), optionally preprocessed, and the
-    reader's metadata (e.g. an HCI scene's disparity range and camera)."""
+    reader's metadata (e.g. an HCI scene's disparity range and camera). A lenslet image
+    read with ``--lenslet`` must hold 8 lenslets a side
+    (:func:`liff.io.eslf.check_given_lenslets`)."""
     from .. import io
 
+    from ..io.eslf import check_given_lenslets
+
     read = io.read_light_field(path, **options)
+    check_given_lenslets(read)  # --lenslet: at least 8 lenslets a side
     light_field = read.light_field
     if preprocess:
         from ..preprocess import prepare
@@ -443,11 +452,14 @@ def error_line(command: str, name: str, error: str) -> str:
 
 def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: str,
               label: Callable[[tuple], str],
-              done: Optional[Callable[[object], None]] = None) -> Tuple[List, int]:
+              done: Optional[Callable[[object], None]] = None,
+              failed: Callable[[object], bool] = lambda result: False) -> Tuple[List, int]:
     """Runs ``function(*job)`` for every job, on ``workers`` processes (1 = here), with a
     progress bar on stderr (see :func:`progress`). A job that raises is reported as
     ``liff <command>: <label>: <error>`` and the rest go on; ``done(result)`` is called
     with each job's result as it comes (e.g. to write a manifest as the run goes).
+    The progress names each job that finished (``label``), unless it raised or
+    ``failed(result)``: its error line names it.
 
     Returns (results in job order, None for failures; number of failures).
     """
@@ -467,10 +479,10 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
                 results[i] = function(*job)
                 if done:
                     done(results[i])
+                finished(progress, None if failed(results[i]) else label(jobs[i]))
             except (ValueError, OSError, MemoryError) as error:
                 report(i, error)
-            if progress:
-                progress.update()
+                finished(progress, None)
     else:
         # Each worker gets its share of the cores: LiFF uses all of them by default, and
         # N processes that each did would oversubscribe the machine N times over.
@@ -485,10 +497,10 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
                     results[i] = future.result()
                     if done:
                         done(results[i])
+                    finished(progress, None if failed(results[i]) else label(jobs[i]))
                 except (ValueError, OSError, MemoryError) as error:
                     report(i, error)
-                if progress:
-                    progress.update()
+                    finished(progress, None)
         except BaseException:  # Ctrl-C, SIGTERM: stop now, not after the queued jobs
             stop_now(pool)
             raise
@@ -496,6 +508,15 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
     if progress:
         progress.close()
     return results, failures
+
+
+def finished(bar, item: Optional[str]) -> None:
+    """Counts an input done on the progress ``bar`` (None: no bar), naming ``item``: tqdm's
+    postfix, the log line's ``last ITEM``; None for one that failed, which its error line
+    names already."""
+    if bar is not None:
+        bar.set_postfix_str(item or "", refresh=False)
+        bar.update()
 
 
 def _set_threads(threads: int) -> None:

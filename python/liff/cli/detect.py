@@ -259,14 +259,15 @@ def run_tasks(tasks: List[batch.Task], args: argparse.Namespace,
             bar.write(failure_line(outcome), file=sys.stderr)
         if done:
             done(outcome)
-        bar.update()
+        common.finished(bar, None if outcome.error else outcome.input)
 
     if args.scheduler:
         with common.progress(desc="liff detect", total=len(tasks)) as bar:
             return batch.run(tasks, args.scheduler, progress=report,
                              notice=lambda text: bar.write(f"liff detect: {text}", file=sys.stderr))
     outcomes, _ = common.run_batch(batch.run_task, [(task,) for task in tasks], args.workers,
-                                   "detect", label=lambda job: job[0].source, done=done)
+                                   "detect", label=lambda job: job[0].source, done=done,
+                                   failed=lambda outcome: bool(outcome.error))
     outcomes = [o or batch.Outcome(t.source, t.output, "failed", error="reported above",
                                    **batch.read_as(t.reader_options))
                 for t, o in zip(tasks, outcomes)]
@@ -332,17 +333,47 @@ def check_manifest(manifest: str, args: argparse.Namespace, tasks: List[batch.Ta
                          "--manifest path (or --overwrite to replace it); nothing was written")
 
 
-def dry_run(args: argparse.Namespace) -> int:
-    """``--dry-run``: what would be read as what, and what the folders hold besides."""
-    from .inputs import describe, expand
+def checked_plan(args: argparse.Namespace) -> tuple:
+    """:func:`plan`, and every other check the run makes before it writes anything (the
+    hloc files, ``--hloc-images``, the manifest): the run and ``--dry-run`` both call it,
+    so a dry run refuses exactly what the run refuses.
 
-    inputs, left_out = expand(args.paths, common.reader_options(args), args.from_list)
-    for item in inputs:
+    Raises
+    ------
+    ValueError
+        As :func:`plan`, :func:`common.check_hloc_output`, :func:`liff.hloc.check_export`
+        and :func:`check_manifest`.
+    """
+    tasks, kept, redo = plan(args, common.reader_options(args),
+                             common.detector_parameters(args, given_only=True))
+    common.check_hloc_output(args.hloc, common.protected_inputs(args), "--hloc", "features")
+    if args.hloc_images and not args.hloc:
+        raise ValueError("--hloc-images without --hloc; expected both (the features file and "
+                         "its images)")
+    if args.hloc_images:
+        refuse_inputs([args.hloc_images], common.protected_inputs(args), "--hloc-images")
+    if args.hloc:  # before any output is written
+        from ..hloc import check_export
+
+        check_export(args.hloc, [task.output for task in tasks] + [o.output for o in kept],
+                     args.hloc_images, args.overwrite)
+    if args.manifest:
+        check_manifest(args.manifest, args, tasks, kept)
+    return tasks, kept, redo
+
+
+def dry_run(args: argparse.Namespace) -> int:
+    """``--dry-run``: what would be read as what, and what the folders hold besides,
+    after the run's own checks (:func:`checked_plan`)."""
+    from .inputs import describe
+
+    tasks, kept, _ = checked_plan(args)
+    for item in args.inputs:
         print(describe(item))
-    for entry in left_out:
+    for entry in args.left_out:
         print(f"{entry.path}: {entry.why}")
-    print(f"{len(inputs)} input(s) would be read; {len(left_out)} file(s) left out; nothing "
-          "was read or written (--dry-run)")
+    print(f"{len(args.inputs)} input(s) would be read; {len(args.left_out)} file(s) left out; "
+          "nothing was read or written (--dry-run)")
     return 0
 
 
@@ -364,23 +395,9 @@ def run(args: argparse.Namespace) -> int:
     mask.check_mask_option(getattr(args, "mask", None))
     if args.dry_run:
         return dry_run(args)
-    tasks, kept, redo = plan(args, common.reader_options(args),
-                             common.detector_parameters(args, given_only=True))
-    common.check_hloc_output(args.hloc, common.protected_inputs(args), "--hloc", "features")
-    if args.hloc_images and not args.hloc:
-        raise ValueError("--hloc-images without --hloc; expected both (the features file and "
-                         "its images)")
-    if args.hloc_images:
-        refuse_inputs([args.hloc_images], common.protected_inputs(args), "--hloc-images")
-    if args.hloc:  # before any output is written
-        from ..hloc import check_export
-
-        check_export(args.hloc, [task.output for task in tasks] + [o.output for o in kept],
-                     args.hloc_images, args.overwrite)
+    tasks, kept, redo = checked_plan(args)
     manifest = args.manifest
-    if manifest:
-        check_manifest(manifest, args, tasks, kept)
-    elif wants_run_manifest(args):  # a name of its own, taken now (after the checks)
+    if not manifest and wants_run_manifest(args):  # a name of its own, taken now (after the checks)
         manifest = batch.new_manifest_name(args.out)
     for out, reasons in redo.items():
         print(f"redoing {out}, out of date: {'; '.join(reasons)}")
@@ -418,6 +435,10 @@ def run(args: argparse.Namespace) -> int:
             print(f"hloc: replaced the features of {', '.join(added.replaced)} with other ones: "
                   "matches of them made before are stale (liff match --hloc refuses to add to "
                   "those match files); match them again into a new file", file=sys.stderr)
+        if added.replaced_images:
+            print(f"hloc: replaced {', '.join(added.replaced_images)} (--overwrite): files "
+                  f"--hloc-images held that were not centre views exported with {args.hloc} "
+                  "(another features file's images, or your own)", file=sys.stderr)
     if failed:
         print(f"liff detect: {failed} of {len(tasks)} light field(s) failed", file=sys.stderr)
     return 1 if failed else 0

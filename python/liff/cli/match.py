@@ -71,6 +71,19 @@ def features_of(path: str, options: dict, args: argparse.Namespace) -> Features:
     return features_from_light_field(detector, light_field)
 
 
+def many_to_one(matches, inliers, a: str, b: str) -> str:
+    """"; many-to-one: ..." when several matches share a feature of B (the ratio test
+    matches each feature of A to its nearest in B, so counts of matches can exceed the
+    features of B they join), else ""."""
+    joined = len({m.trainIdx for m in matches})
+    joined_inliers = len({m.trainIdx for m, inlier in zip(matches, inliers) if inlier})
+    if joined == len(matches) and joined_inliers == int(np.sum(inliers)):
+        return ""
+    return (f"; many-to-one: the matches join {joined} and the inliers {joined_inliers} "
+            f"distinct features of {b} (the ratio test matches each feature of {a} to its "
+            f"nearest in {b}, and several may share one)")
+
+
 def check_hloc_options(args: argparse.Namespace) -> None:
     """Before any reading: ``--hloc`` is a matches file (no input), with
     ``--hloc-features``, a features file that holds both images' names, which differ.
@@ -113,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
     result = verify(fa.keypoints, fb.keypoints, matches, args.model, args.threshold)
     print(f"{args.a}: {len(fa.keypoints)} features; {args.b}: {len(fb.keypoints)} features")
     print(f"putative matches: {len(matches)}; inliers ({args.model}, {args.threshold:g} px): "
-          f"{result.inlier_count}")
+          f"{result.inlier_count}" + many_to_one(matches, result.inliers, args.a, args.b))
     chance = chance_inliers(fa.keypoints, fb.keypoints, matches, args.model, args.threshold)
     if result.inlier_count < max(MIN_INLIERS, CHANCE_FACTOR * chance):
         print(f"warning: {result.inlier_count} inliers are too few to show that the two share a "

@@ -7,13 +7,15 @@ import configparser
 import json
 import os
 import sys
+from typing import Optional
 
 import numpy as np
 
 from ..feature_file import Features, features_from_light_field, load_features
 from ..outputs import atomic_output, refuse_inputs
 from . import common
-from .calibration import add_camera_options, camera_from_args
+from .calibration import (Calibration, add_camera_options, calibration_from_args,
+                          check_feature_file)
 from .match import MIN_INLIERS, is_feature_file
 
 
@@ -40,21 +42,25 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def features_and_camera(path: str, options: dict, args: argparse.Namespace):
+def features_and_camera(path: str, options: dict, args: argparse.Namespace,
+                        calibration: Optional[Calibration] = None):
     """(Features, the camera the file's reader knows or None); ``options``: the reader
-    options of ``path`` (:func:`common.input_options`)."""
+    options of ``path`` (:func:`common.input_options`). ``calibration``: the camera
+    given, whose view size the input's must be (checked before detecting)."""
     if is_feature_file(path):
-        return load_features(path), None
-    from .. import io
-
-    source = io.read_light_field(path, **options)
-    light_field = source.light_field
+        features = load_features(path)
+        if calibration is not None:
+            check_feature_file(calibration, path, features)
+        return features, None
+    light_field, metadata = common.read_input(path, options, preprocess=False)
+    if calibration is not None:
+        calibration.check(path, light_field.shape)
     if args.preprocess:
         from ..preprocess import prepare
 
         light_field = prepare(light_field)
     detector = common.make_detector(common.detector_parameters(args))
-    return features_from_light_field(detector, light_field), source.metadata.get("camera")
+    return features_from_light_field(detector, light_field), metadata.get("camera")
 
 
 def carries_camera(path: str, args: argparse.Namespace) -> bool:
@@ -92,15 +98,16 @@ def run(args: argparse.Namespace) -> int:
         if os.path.exists(args.out) and not args.overwrite:
             raise ValueError(f"{args.out}: exists; expected a new --out path (or --overwrite to "
                              "replace it); nothing was written")
-    camera = camera_from_args(args)
+    calibration = calibration_from_args(args)
+    camera = None if calibration is None else calibration.camera
     without = [path for path in (args.a, args.b) if not carries_camera(path, args)]
     if camera is None and without:  # said before anything is read or detected
         raise ValueError(f"no camera calibration for {' and '.join(without)}: give --camera F B "
                          "CX CY (and --focus-distance), --camera-file, --hci or --lftoolbox, or "
                          "inputs that carry one (HCI scenes with the camera in parameters.cfg)")
     options_a, options_b = common.input_options([args.a, args.b], args)
-    fa, camera_a = features_and_camera(args.a, options_a, args)
-    fb, camera_b = features_and_camera(args.b, options_b, args)
+    fa, camera_a = features_and_camera(args.a, options_a, args, calibration)
+    fb, camera_b = features_and_camera(args.b, options_b, args, calibration)
     if camera is not None:
         camera_a = camera_b = camera
     _check(fa, args.a)

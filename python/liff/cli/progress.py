@@ -56,8 +56,9 @@ class _Heartbeat:
 
 
 class LineProgress:
-    """tqdm's interface as we use it (iteration, ``update``, ``write``, a context
-    manager), printed as lines for a log: ``DESC: N/TOTAL UNITs done, S s``."""
+    """tqdm's interface as we use it (iteration, ``update``, ``set_postfix_str``,
+    ``write``, a context manager), printed as lines for a log: ``DESC: N/TOTAL UNIT(s)
+    done, last ITEM, S s``, ITEM the postfix set (the input that finished)."""
 
     def __init__(self, iterable: Optional[Iterable] = None, desc: str = "liff",
                  total: Optional[int] = None, unit: str = "file"):
@@ -65,13 +66,20 @@ class LineProgress:
         if total is None and iterable is not None and hasattr(iterable, "__len__"):
             total = len(iterable)
         self.desc, self.total, self.unit, self.n = desc, total, unit, 0
+        self.item: Optional[str] = None
         self.start = time.monotonic()
         self._heartbeat = _Heartbeat(lambda: self._line(", still working"))
 
     def _line(self, note: str = "") -> None:
         total = f"/{self.total}" if self.total is not None else ""
-        print(f"{self.desc}: {self.n}{total} {self.unit}(s) done, "
+        last = f", last {self.item}" if self.item else ""
+        print(f"{self.desc}: {self.n}{total} {self.unit}(s) done{last}, "
               f"{time.monotonic() - self.start:.0f} s{note}", file=sys.stderr, flush=True)
+
+    def set_postfix_str(self, s: str = "", refresh: bool = True) -> None:
+        """What finished last (tqdm's postfix): named in the next line."""
+        with self._heartbeat.lock:
+            self.item = s or None
 
     def update(self, n: int = 1) -> None:
         with self._heartbeat.lock:

@@ -285,3 +285,57 @@ def loadmat_checked(scipy_io, data: bytes, name: str, limit: Optional[int] = Non
     single = extract_variable(data, name, limit)
     return scipy_io.loadmat(io.BytesIO(single), variable_names=[name], squeeze_me=False,
                             struct_as_record=True, mat_dtype=False)[name]
+
+
+#: bytes of a variable read (inflated) to get at its header: its dimensions, name and a
+#: struct's field names
+HEADER_BYTES = 1 << 16
+
+
+def variable_headers(file) -> list:
+    """[(name, dims, MATLAB class number, struct field names or ())] of the variables of
+    the open MAT v5 file ``file``, from their headers alone: at most :data:`HEADER_BYTES`
+    of each variable are read (inflated), the rest skipped by seeking.
+
+    Raises
+    ------
+    Damaged
+        If the file's header or a variable's header is damaged or cut short.
+    """
+    order = _header_order(file.read(128))
+    file.seek(0, io.SEEK_END)
+    size = file.tell()
+    position, found = 128, []
+    while position + 8 <= size:
+        file.seek(position)
+        kind, count = struct.unpack(order + "II", file.read(8))
+        end = position + 8 + count
+        if kind not in (MI_MATRIX, MI_COMPRESSED) or end > size:
+            raise Damaged(f"the element at byte {position} is not a whole variable (type {kind}, "
+                          f"{count} bytes)")
+        if kind == MI_MATRIX:
+            head = struct.pack(order + "II", kind, count) + file.read(min(count, HEADER_BYTES))
+        else:
+            inflater, head, left = zlib.decompressobj(), b"", count
+            while len(head) < HEADER_BYTES and left > 0 and not inflater.eof:
+                piece = file.read(min(left, 1 << 14))
+                left -= len(piece)
+                try:
+                    head += inflater.decompress(piece, HEADER_BYTES - len(head))
+                except zlib.error as e:
+                    raise Damaged(f"its compressed data is damaged ({e})") from None
+        stream = _Stream(head, compressed=False)
+        name, dims, mclass = _header(stream, order)
+        fields: tuple = ()
+        if mclass == STRUCT:
+            walker = _Walker(stream, order)
+            length = walker.element({MI_INT32, MI_UINT32}, "the field name length", keep=8)
+            width = struct.unpack(order + "i", length[:4])[0] if len(length) >= 4 else 0
+            if width <= 0:
+                raise Damaged("a struct's field name length is not one positive number")
+            names = walker.element({MI_INT8, MI_UTF8}, "the field names", keep=MAX_NAMES)
+            fields = tuple(names[i:i + width].split(b"\0", 1)[0].decode("latin-1")
+                           for i in range(0, len(names) - width + 1, width))
+        found.append((name, dims, mclass, fields))
+        position = end
+    return found

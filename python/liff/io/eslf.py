@@ -187,7 +187,7 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
         The image (any format OpenCV reads; ``cv2.IMREAD_UNCHANGED``).
     n : int, optional
         Lenslet size in pixels (views per row and per column of the lenslet grid); a
-        whole number (2.0 is taken as 2, 2.5 is refused). Default: detected from the
+        whole number >= 2 (2.0 is taken as 2, 2.5 and 1 are refused). Default: detected from the
         image (:func:`detect_lenslet_size`: the period of its alpha channel and of its
         pixels along rows and columns, and the image size); an image whose lenslet size
         cannot be told is refused. The Stanford Lytro archive uses 14, the Light Field
@@ -213,9 +213,11 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
     Raises
     ------
     ValueError
-        Naming the file: unreadable, ``n`` or ``keep`` not a whole number >= 1, a
+        Naming the file: unreadable, ``n`` not a whole number >= 2 (a lenslet of one
+        pixel is one view: an ordinary image), ``keep`` not a whole number >= 1, a
         lenslet size that cannot be detected, an image smaller than one lenslet, or
-        ``keep`` larger than ``n``.
+        ``keep`` larger than ``n``. (The ``liff`` command asks more of a given size:
+        :func:`check_given_lenslets`.)
 
     Warns
     -----
@@ -225,7 +227,8 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
     path = os.fspath(path)
     detected = n is None
     if not detected:
-        n = positive_int(n, "lenslet size n", path, 1)
+        n = positive_int(n, "lenslet size n", path, 2, "a whole number of pixels >= 2 (each "
+                         "lenslet holds n x n views; n = 1 is an ordinary image)")
     image = read_image(path, copies=2)  # the image and the light field rearranged from it
     evidence: dict = {}
     if detected:
@@ -253,6 +256,32 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
                 "image_size": (height, width), "cropped": (height - V * n, width - U * n),
                 "has_alpha": channels in (2, 4)}
     return LightFieldFile(light_field, "eslf", metadata, None, path)
+
+
+def check_given_lenslets(result: LightFieldFile) -> None:
+    """Refuses a lenslet image read with a given size ``n`` that makes fewer than
+    :data:`MIN_LENSLETS` (8) lenslets a side, views smaller than 8 x 8 pixels: what
+    :func:`detect_lenslet_size` needs to see a lenslet period, and less than a feature
+    needs. Such an image is a thumbnail, or ``n`` is not its lenslet size. The ``liff``
+    command applies it to ``--lenslet``; :func:`read_eslf` itself reads any image of at
+    least one lenslet (small light fields round-trip).
+
+    Raises
+    ------
+    ValueError
+        Naming the file, its size, the lenslets ``n`` makes and the size ``n`` needs.
+    """
+    meta = result.metadata
+    if result.format != "eslf" or meta.get("lenslet_size_detected", True):
+        return
+    n, (height, width) = meta["lenslet_size"], meta["image_size"]
+    U, V = width // n, height // n
+    if min(U, V) < MIN_LENSLETS:
+        raise ValueError(f"{result.source}: image is {width}x{height}: {U}x{V} lenslets of {n}x{n} "
+                         f"pixels (n={n}); expected at least {MIN_LENSLETS} lenslets a side, an "
+                         f"image of at least {MIN_LENSLETS * n}x{MIN_LENSLETS * n} pixels (views "
+                         f"of at least {MIN_LENSLETS}x{MIN_LENSLETS} pixels, as the lenslet size "
+                         "detection needs): a thumbnail, or not this image's lenslet size")
 
 
 def write_eslf(path: PathLike, light_field: np.ndarray, n: Optional[int] = None) -> None:

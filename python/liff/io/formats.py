@@ -25,7 +25,7 @@ from .eslf import read_eslf
 from .hci import is_hci_scene, read_hci_light_field
 from .hdf5 import dataset_shapes, read_hdf5
 from .images import IMAGE_SUFFIXES
-from .mat import read_mat
+from .mat import holds_light_field as mat_holds_light_field, read_mat
 from .mosaic import read_mosaic
 from .numpy_files import read_numpy, stored_shapes
 from .views import read_views, view_names
@@ -68,6 +68,22 @@ class ReaderOption:
         return " ".join([self.flag] + [str(v) for v in values])
 
 
+def lenslet_size(text: str) -> int:
+    """``--lenslet``'s type: a whole number >= 2 (argparse.ArgumentTypeError naming the
+    value and what was expected: a lenslet of one pixel holds one view)."""
+    import argparse
+
+    try:
+        n = int(text)
+    except ValueError:
+        n = None
+    if n is None or n < 2:
+        raise argparse.ArgumentTypeError(
+            f"{text}; expected a lenslet size N >= 2 pixels (each lenslet holds N x N views; 1 "
+            "is an ordinary image), e.g. 14 for the Stanford Lytro archive")
+    return n
+
+
 #: every reader option, by keyword; ``bit_depth`` applies to every format
 OPTIONS: Dict[str, ReaderOption] = {o.keyword: o for o in (
     ReaderOption("grid", "--grid", "view grid (T, S): required for a mosaic; for views, the "
@@ -75,7 +91,7 @@ OPTIONS: Dict[str, ReaderOption] = {o.keyword: o for o in (
                  ("T", "S"), int, 2),
     ReaderOption("n", "--lenslet", "lenslet size of an ESLF image (default: detected from the "
                  "image; 14 in the Stanford Lytro archive, 15 from the Light Field Toolbox)",
-                 "N", int),
+                 "N", lenslet_size),
     ReaderOption("keep", "--keep-views", "ESLF: keep the centre K x K views (e.g. 11 of a "
                  "Lytro's 14)", "K", int),
     ReaderOption("pattern", "--pattern", "views: regex with named groups t and s (or index) "
@@ -174,8 +190,7 @@ FORMATS: Dict[str, InputFormat] = {f.name: f for f in (
                 holds_light_field=lambda path: _arrays_hold_light_field(stored_shapes(path)),
                 fuzz=(".npz", {})),
     InputFormat("mat", "MATLAB file (Light Field Toolbox, HCI tools), variable LF",
-                ("*.mat",), read_mat, ("key",),
-                holds_light_field=lambda path: _arrays_hold_light_field(dataset_shapes(path)),
+                ("*.mat",), read_mat, ("key",), holds_light_field=mat_holds_light_field,
                 fuzz=(".mat", {})),
     InputFormat("hdf5", "HDF5 file (2013 HCI benchmark), dataset LF", ("*.h5", "*.hdf5", "*.hdf"),
                 read_hdf5, ("key",),

@@ -72,7 +72,7 @@ def read_hdf5(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
     with open(path, "rb") as f:
         if f.read(len(MATLAB_HEADER)) == MATLAB_HEADER:
             raise ValueError(f"{path}: a MATLAB v7.3 file (axes stored column-major); expected "
-                             f"HDF5 written in C order: read it with format='mat' (read_mat)")
+                             f"HDF5 written in C order; read it as a .mat file (format='mat')")
     try:
         with h5py.File(path, "r") as f:
             found = {}  # dataset path -> number of axes
@@ -103,14 +103,20 @@ def dataset_shapes(path: PathLike) -> Optional[list]:
     """The shapes of the datasets in an HDF5 file (a MATLAB v7.3 file's too), from its
     metadata alone, or None if h5py is missing or cannot open the file (the reader then
     says what is wrong)."""
+    datasets = named_dataset_shapes(path)
+    return None if datasets is None else [shape for _, shape in datasets]
+
+
+def named_dataset_shapes(path: PathLike) -> Optional[list]:
+    """[(path in the file, shape)] of every dataset of an HDF5 file, as :func:`dataset_shapes`."""
     try:
         import h5py
 
-        shapes: list = []
+        found: list = []
         with h5py.File(path, "r") as f:
-            f.visititems(lambda name, node: shapes.append(node.shape)
+            f.visititems(lambda name, node: found.append((name, node.shape))
                          if isinstance(node, h5py.Dataset) else None)
-        return shapes
+        return found
     except Exception:  # h5py raises OSError, KeyError, ValueError, ... on damaged files
         return None
 

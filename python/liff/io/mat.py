@@ -28,7 +28,7 @@ from typing import Optional
 import numpy as np
 
 from .._budget import check_fits, over_budget, room_bytes
-from .hdf5 import check_dataset_fits
+from .hdf5 import check_dataset_fits, named_dataset_shapes
 from ._shared import (LightFieldFile, PathLike, check_disparity, required_module, pick_key,
                       rgb_light_field, stored_file)
 
@@ -92,6 +92,55 @@ def read_mat(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
         disparity = check_disparity(disparity, light_field, f"{source}.{DISPARITY_FIELD}")
     metadata = {"key": key, "variables": names, "version": version}
     return LightFieldFile(light_field, "mat", metadata, disparity, path)
+
+
+def variable_shapes(path: PathLike) -> Optional[list]:
+    """[(name, shape in MATLAB's index order, kind)] of a .mat file's variables, from
+    their headers alone (v5: :func:`._matv5.variable_headers`; v7.3: the HDF5 metadata,
+    its datasets' axes reversed, named by their paths; v4: SciPy's ``whosmat``), or None
+    when the headers cannot be read (the reader then says what is wrong). ``kind`` is
+    "numeric", another MATLAB class name, or for a v5 struct ``("struct", field names)``.
+    """
+    from . import _matv5
+
+    path = os.fspath(path)
+    try:
+        import scipy.io
+
+        try:
+            major, _ = scipy.io.matlab.matfile_version(path)  # (the header's first 128 bytes)
+        except Exception:  # HDF5 without MATLAB's header (written by h5py): as v7.3
+            import h5py
+
+            if not h5py.is_hdf5(path):
+                raise
+            major = 2
+        if major == 0:
+            return [(name, tuple(shape), kind) for name, shape, kind in scipy.io.whosmat(path)]
+        if major == 2:  # v7.3: HDF5, column-major (h5py reverses the axes); #refs# is MATLAB's
+            datasets = named_dataset_shapes(path)
+            return None if datasets is None else [
+                (name, tuple(shape)[::-1], "numeric") for name, shape in datasets
+                if not name.startswith("#")]
+        with open(path, "rb") as f:
+            return [(name, tuple(dims), ("struct", fields) if mclass == _matv5.STRUCT
+                     else "numeric" if mclass in _matv5.NUMERIC_CLASSES
+                     else _matv5.CLASS_NAMES.get(mclass, f"class {mclass}"))
+                    for name, dims, mclass, fields in _matv5.variable_headers(f)]
+    except Exception:  # a damaged or unreadable file: unknown here
+        return None
+
+
+def holds_light_field(path: PathLike) -> Optional[bool]:
+    """Whether a .mat file can hold a light field, from its headers alone: a 4-D or 5-D
+    array (a v7.3 struct's field included), or a v5 struct with a field ``LF`` (the 4D
+    benchmark's layout, whose field sizes lie past the header); None when the headers
+    cannot be read."""
+    shapes = variable_shapes(path)
+    if shapes is None:
+        return None
+    return any((len(shape) in (4, 5) and kind not in ("char", "cell"))
+               or (isinstance(kind, tuple) and LF_VARIABLE in kind[1]) for _, shape, kind in shapes)
 
 
 def _unreadable(path: str, what: str, error: BaseException) -> ValueError:

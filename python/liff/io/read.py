@@ -54,8 +54,8 @@ def read_light_field(path: PathLike, format: Optional[str] = None, bit_depth=Non
     path = os.fspath(path)
     refuse_special(path, "a light field file or folder")
     if not os.path.exists(path):
-        raise ValueError(f"{path}: no such file or folder; expected a light field "
-                         "(liff.io.read_light_field lists the formats read)")
+        raise ValueError(f"{path}: no such file or folder; expected a light field file or "
+                         f"folder of a format liff reads ({', '.join(FORMATS)})")
     if format is None:
         format = guess_format(path)
         if format is None:

@@ -1,0 +1,118 @@
+"""What the command line says (issues 29 and 31, break tests left open): flags, not
+Python names; warnings as one clean line; --lenslet values that cannot be a lenslet
+size; a many-to-one match count that names the features of B it joins."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import liff
+from liff.cli import main
+
+from lfhelpers import write_mat_v73
+from test_cli import hci_folder
+
+
+def eslf_image(path, n=5, size=64):
+    lf = liff.synthetic.render_disks(liff.synthetic.paper_disks(n=8, shape=(n, n, size, size), seed=0),
+                                     (n, n, size, size))
+    liff.io.write_eslf(path, np.round(np.clip(lf, 0, 1) * 255).astype(np.uint8), n)
+    return path
+
+
+@pytest.mark.parametrize("value", ["1", "0", "-3", "x"])
+def test_lenslet_refuses_what_cannot_be_a_lenslet_size(tmp_path, capsys, value):
+    """Break test: --lenslet 1 read the image as a 1x1 light field (an ordinary image)
+    and wrote its features; refused naming the flag, the value and what is expected,
+    on the command line and on a --from-list line, before anything is read."""
+    image = eslf_image(tmp_path / "a.eslf.png")
+    out = tmp_path / "a.npz"
+    with pytest.raises(SystemExit) as exit_:
+        main(["detect", str(image), "--lenslet", value, "--out", str(out)])
+    assert exit_.value.code == 2 and not out.exists()
+    assert (f"argument --lenslet: {value}; expected a lenslet size N >= 2 pixels"
+            in capsys.readouterr().err)
+    todo = tmp_path / "todo.txt"
+    todo.write_text(f"{image} --lenslet {value}\n")
+    assert main(["detect", "--from-list", str(todo), "--out", str(tmp_path / "feats")]) == 1
+    assert (f"{todo}, line 1: argument --lenslet: {value}; expected a lenslet size N >= 2"
+            in capsys.readouterr().err)
+    with pytest.raises(ValueError, match=r"lenslet size n = 1; expected a whole number of "
+                                         r"pixels >= 2"):
+        liff.io.read_eslf(image, 1)
+
+
+def test_lenslet_refuses_an_image_too_small_for_8_lenslets_a_side(tmp_path, capsys):
+    """Break test: a thumbnail (40x40 pixels) read with --lenslet 14 gave a light field
+    of 2x2-pixel views. The command line asks at least 8 lenslets a side, as the size
+    detection needs (8 a side is taken)."""
+    import cv2
+
+    image = eslf_image(tmp_path / "a.eslf.png", n=5, size=64)  # 320x320
+    thumb = tmp_path / "thumb.eslf.png"
+    cv2.imwrite(str(thumb), cv2.resize(cv2.imread(str(image), cv2.IMREAD_UNCHANGED), (40, 40)))
+    assert main(["detect", str(thumb), "--lenslet", "14", "--out", str(tmp_path / "t.npz")]) == 1
+    err = capsys.readouterr().err
+    assert (f"{thumb}: image is 40x40: 2x2 lenslets of 14x14 pixels (--lenslet 14); expected "
+            "at least 8 lenslets a side, an image of at least 112x112 pixels") in err
+    assert not (tmp_path / "t.npz").exists()
+    assert liff.io.read_eslf(thumb, 14).light_field.shape[2:4] == (2, 2)  # the API reads it
+    assert main(["detect", str(thumb), "--lenslet", "5", "--out", str(tmp_path / "t.npz")]) == 0
+    assert main(["pose", str(image), str(image), "--lenslet", "50", "--camera", "300", "0.04",
+                 "3", "3"]) == 1  # (every command reads through the same check)
+    assert "6x6 lenslets of 50x50 pixels (--lenslet 50)" in capsys.readouterr().err
+
+
+def test_messages_name_flags_not_python_names(tmp_path, capsys):
+    """Break test: 'liff.io.read_light_field lists the formats read', "format='mosaic'"
+    and "read it with format='mat' (read_mat)" reached the command line."""
+    missing = tmp_path / "absent.npz"
+    unknown = tmp_path / "scene.xyz"
+    unknown.write_bytes(b"x")
+    v73 = tmp_path / "lf.h5"
+    write_mat_v73(v73, {"LF": np.zeros((3, 3, 8, 8))})
+    for path in (missing, unknown, v73):
+        assert main(["detect", str(path), "--out", str(tmp_path / "o.npz")]) == 1
+    err = capsys.readouterr().err
+    assert f"{missing}: no such file or folder; expected a light field file or folder of a " \
+           "format liff reads (hci, views, npy, npz, mat, hdf5, eslf, mosaic)" in err
+    assert "mosaic: only when named (--format mosaic)" in err
+    assert "read it as a .mat file (--format mat)" in err
+    assert not re.search(r"read_light_field|format='|read_mat", err)
+
+
+def test_a_slope_range_warning_is_one_clean_line_naming_flags(tmp_path, capsys):
+    """Break test: liff match printed Python's 'file.py:356: SlopeRangeWarning: ...' and
+    the source line under it, with firstSlope= for the flag."""
+    scene = hci_folder(str(tmp_path / "scene"), -2.0, 2.0)
+    assert main(["match", scene, scene, "--first-slope", "-0.5", "--last-slope", "0.5"]) == 0
+    err = capsys.readouterr().err
+    warned = [line for line in err.splitlines() if "slope range" in line]
+    assert len(warned) == 2  # one per input, each one line
+    assert all(line.startswith("liff match: warning: ") and "--first-slope=" in line
+               for line in warned)
+    assert ".py:" not in err and "SlopeRangeWarning" not in err and "firstSlope" not in err
+
+
+def test_a_many_to_one_match_count_names_the_features_of_b_it_joins(tmp_path, capsys):
+    """Break test: 'putative matches: 271; inliers: 58' against a B of 13 features: the
+    ratio test matches each feature of A to its nearest in B, so several share one."""
+    lf = liff.synthetic.textured_layers((3, 3, 96, 96), seed=3).light_field
+    np.save(tmp_path / "scene.npy", lf)
+    a, b = str(tmp_path / "a.npz"), str(tmp_path / "b.npz")
+    assert main(["detect", str(tmp_path / "scene.npy"), "--out", a]) == 0
+    assert main(["detect", str(tmp_path / "scene.npy"), "--out", b, "--nfeatures", "12"]) == 0
+    capsys.readouterr()
+    assert main(["match", a, b, "--ratio", "1.0"]) == 0
+    out = capsys.readouterr().out
+    features_b = int(re.search(rf"{re.escape(b)}: (\d+) features", out).group(1))
+    putative = int(re.search(r"putative matches: (\d+)", out).group(1))
+    joined = re.search(r"many-to-one: the matches join (\d+) and the inliers (\d+) distinct "
+                       rf"features of {re.escape(b)}", out)
+    assert putative > features_b and joined
+    assert int(joined.group(2)) <= int(joined.group(1)) <= features_b
+    assert main(["match", a, a]) == 0  # one to one: nothing more said
+    assert "many-to-one" not in capsys.readouterr().out

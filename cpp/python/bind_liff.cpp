@@ -10,6 +10,7 @@
 #include "arrays.hpp"
 #include "bindings.hpp"
 #include "light_field.hpp"
+#include "memory.hpp"
 #include "parameter_values.hpp"
 #include "slope_range.hpp"
 
@@ -152,6 +153,21 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
       [](const PyLiFF& s) { return detail::lastSurveyFoundNothing(*s.impl); },
       "Whether the last call's automatic range found no structure in its survey and "
       "searched the paper's [-1, 1] (docs/SLOPES.md).");
+  cls.def(
+      "_memory_estimate",
+      [](const PyLiFF& s) {
+        int batch = 0;
+        const detail::MemoryEstimate need = detail::lastMemoryEstimate(*s.impl, batch);
+        py::dict parts;
+        parts["batch"] = batch;
+        parts["total"] = batch > 0 ? need.total(batch) : 0.0;
+        parts["light_field"] = need.lightFieldBytes;
+        parts["survey"] = need.surveyBytes;
+        return parts;
+      },
+      "Tests and benchmarks only: the memory estimate (bytes) the last detect, "
+      "detectAndCompute or compute call checked its limit with, its main parts and the "
+      "slices it built at once (batch; 0 before the first call).");
   cls.def(
       "getSlicesUsed", [](const PyLiFF& s) { return s.impl->getSlicesUsed(); },
       "Slopes of every focal slice the last call built, increasing (list of float).");

@@ -9,6 +9,7 @@
 
 #include "bindings.hpp"
 #include "profile.hpp"
+#include "working_memory.hpp"
 
 namespace liff {
 namespace python {
@@ -43,6 +44,9 @@ void BindAllocation(py::module_& m) {
         "Bytes of physical memory this process can still use, as the detector's default\n"
         "memory limit counts them: MemAvailable, capped by the room under the cgroup's\n"
         "limit, plus the working memory kept for reuse; 0 when unknown (no automatic limit).");
+  m.def("_working_memory_peak", &detail::workingMemoryPeakBytes, "reset"_a = false,
+        "Tests and benchmarks only: the most bytes of the core's buffers (a page or more) in\n"
+        "use and kept at once since the last reset; reset=True starts again from now.");
 }
 
 void BindVersion(py::module_& m) {

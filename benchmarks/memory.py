@@ -10,9 +10,10 @@ Usage:
 
 A case is ``TxSxVxU:DTYPE:foF:tN:CONTENT`` with DTYPE u8 (grey), u8c3 (BGR), u16 or f32,
 F the first octave (-1 or 0), N the core's threads (liff.setNumThreads) and CONTENT
-``texture`` (smoothed noise seen as three layers at slopes -0.6, 0.1, 0.7: structure
-the automatic range finds; for one view, smoothed noise) or ``noise`` (uniform noise:
-the most keypoints, and a survey that finds nothing).
+``texture`` (smoothed noise of 2 px seen as three layers at slopes -0.6, 0.1, 0.7:
+structure the automatic range finds; for one view, that noise), ``dense`` and ``sparse``
+(a plane at slope 0.5 of smoothed noise of 1 and 12 px: the most keypoints per pixel
+measured, and few) or ``noise`` (uniform noise, in which the survey finds nothing).
 
 Peak: ``VmHWM`` after the call less ``VmRSS`` just before it, with the high-water mark
 reset to the resident size first (``/proc/self/clear_refs``), in a process that has made
@@ -49,6 +50,9 @@ TABLE = [
     "1x1x3000x4000:u8:fo-1:t2:texture",
     "1x1x3000x4000:u8:fo0:t2:texture",
     "1x1x3000x4000:u8:fo-1:t2:noise",
+    "1x1x864x1152:u8:fo-1:t2:dense",
+    "1x1x864x1152:u8:fo-1:t2:sparse",
+    "1x1x864x1152:u8:fo0:t2:sparse",
     "5x5x256x256:u8:fo-1:t1:texture",
     "5x5x256x256:u8:fo-1:t2:texture",
     "5x5x256x256:u8:fo0:t2:texture",
@@ -62,8 +66,13 @@ TABLE = [
     "11x11x376x541:u8:fo-1:t2:noise",
 ]
 
-#: The small cases (each well under a second and 100 MB): tests/test_memory_estimate.py's.
-QUICK = [case for case in TABLE if case.startswith(("5x5x", "1x1x864x"))]
+#: The small cases (each under a second and 300 MB, typical content): in
+#: tests/test_memory_estimate.py.
+QUICK = [case for case in TABLE if case.startswith(("5x5x", "1x1x864x")) and "sparse" not in case
+         and "dense" not in case]
+
+#: Too large to run here (about 11 GB): the estimate only.
+ESTIMATE_ONLY = [(6000, 8000)]
 
 
 @dataclass
@@ -177,6 +186,22 @@ def table(cases: List[str]) -> List[str]:
     return rows
 
 
+def estimate_only(height: int, width: int) -> float:
+    """The estimate (MB) of detectAndCompute for one uint8 view of height x width, from
+    the MemoryError of a call that cannot fit in 1 kB (nothing large is allocated)."""
+    import re
+
+    import liff
+
+    detector = liff.LiFF.create()
+    detector.setMemoryLimitMB(1e-3)
+    try:
+        detector.detectAndCompute(np.zeros((height, width), np.uint8), None)
+    except MemoryError as error:
+        return float(re.search(r"needs about (\d+) MB", str(error)).group(1))
+    raise RuntimeError("expected a MemoryError")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="the small cases only")
@@ -187,6 +212,10 @@ def main(argv=None) -> int:
         print(json.dumps(_child(args.child)))
         return 0
     table(args.case or (QUICK if args.quick else TABLE))
+    if not (args.case or args.quick):
+        for height, width in ESTIMATE_ONLY:
+            print(f"\n{height * width / 1e6:.0f} MP ({height} x {width}, uint8, one view), not "
+                  f"run: estimate {estimate_only(height, width):,.0f} MB")
     return 0
 
 

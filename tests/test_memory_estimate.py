@@ -5,6 +5,7 @@ larger cases give the table in docs/RELIABILITY.md)."""
 
 from __future__ import annotations
 
+import os
 import re
 import sys
 import warnings
@@ -31,6 +32,12 @@ CASES = memory.QUICK + ["1x1x432x576:u8c3:fo-1:t2:dense", "3x7x200x300:u16:fo-1:
                         "5x5x256x256:u8:fo0:t1:dense"]
 
 
+#: The sanitized run (.ci/sanitize.sh) preloads AddressSanitizer, whose redzones,
+#: quarantine and shadow memory are not the memory a call takes.
+SANITIZED = "asan" in os.environ.get("LD_PRELOAD", "")
+
+
+@pytest.mark.skipif(SANITIZED, reason="AddressSanitizer's own memory is not the call's")
 @pytest.mark.parametrize("case", CASES)
 def test_estimate_is_within_25_percent_of_the_measured_peak(case):
     r = memory.measure(case, timeout=300)
@@ -50,10 +57,11 @@ def test_the_measured_cases_cover_what_the_estimate_depends_on():
 
 
 def estimate_when_refused(detector, lf) -> float:
-    """The total in MB the MemoryError states when the call cannot fit in 1 kB."""
+    """The total in MB the MemoryError of detectAndCompute states when the call cannot
+    fit in 1 kB."""
     detector.setMemoryLimitMB(1e-3)
     with pytest.raises(MemoryError) as info:
-        detector.detect(lf)
+        detector.detectAndCompute(lf, None)
     return float(re.search(r"needs about (\d+) MB", str(info.value)).group(1))
 
 
@@ -75,7 +83,10 @@ def test_a_12_mp_photo_fits_4_gb(detector, first_octave):
     need = estimate_when_refused(detector, np.zeros((3000, 4000), np.uint8))
     # A detection-only pyramid keeps 3 Gaussians and 5 DoGs per octave (nOctaveLayers 3).
     pyramid = first_octave_pyramid_mb(3000, 4000, first_octave, 8)
-    assert pyramid < need < 4096 and need < 1.6 * pyramid
+    # Besides it: the build scratch (4 first-octave images, 3 for firstOctave 0), the
+    # keypoints, a few views' worth; a window of three pyramids (the old estimate: 3.6x)
+    # would be over twice.
+    assert pyramid < need < 4096 and need < 2 * pyramid
 
 
 def test_a_48_mp_photo_fits_a_23_gb_machine(detector):

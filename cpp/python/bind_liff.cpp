@@ -205,6 +205,21 @@ LiFF detector and descriptor (core object; use liff.LiFF, which returns cv2 type
       "detector"_a, "lf"_a,
       "The slopes (px per view step) of the features the automatic range's survey keeps for "
       "`lf` with `detector`'s parameters, whatever its own range (docs/SLOPES.md).");
+  hooks.def(
+      "memory_estimate",
+      [](const PyLiFF& s) {
+        const hooks::MemoryEstimateParts need = hooks::lastMemoryEstimate(*s.impl);
+        py::dict parts;
+        parts["batch"] = need.batch;
+        parts["total"] = need.total;
+        parts["light_field"] = need.lightField;
+        parts["survey"] = need.survey;
+        return parts;
+      },
+      "detector"_a,
+      "The memory estimate (bytes) the detector's last detect, detectAndCompute or compute "
+      "call checked its limit with, its main parts and the slices it built at once (batch; "
+      "0 before the first call).");
 }
 
 }  // namespace python

@@ -83,6 +83,9 @@ void BindHooks(py::module_& m) {
       },
       "(name, wall seconds, [seconds of each task]) of every outermost parallel loop since\n"
       "the last reset, in call order (each index a task while profiling).");
+  hooks.def("working_memory_peak", &hooks::workingMemoryPeakBytes, "reset"_a = false,
+            "The most bytes of the core's buffers (a page or more) in use and kept at once\n"
+            "since the last reset; reset=True starts again from now.");
 }
 
 }  // namespace python

@@ -6,8 +6,10 @@
 #include <cmath>
 
 #include "light_field.hpp"
+#include "memory.hpp"
 #include "profile.hpp"
 #include "slope_range.hpp"
+#include "working_memory.hpp"
 
 namespace liff {
 namespace hooks {
@@ -34,6 +36,17 @@ std::vector<ParallelLoop> parallelLoops() {
     loops.push_back({record.name, record.wall, record.tasks});
   return loops;
 }
+
+MemoryEstimateParts lastMemoryEstimate(const LiFF& detector) {
+  MemoryEstimateParts parts;
+  const detail::MemoryEstimate need = detail::lastMemoryEstimate(detector, parts.batch);
+  if (parts.batch > 0) parts.total = need.total(parts.batch);
+  parts.lightField = need.lightFieldBytes;
+  parts.survey = need.surveyBytes;
+  return parts;
+}
+
+size_t workingMemoryPeakBytes(bool reset) { return detail::workingMemoryPeakBytes(reset); }
 
 std::vector<double> surveySlopes(const LiFF& detector, cv::InputArray lightField) {
   const cv::Mat input = lightField.getMat();

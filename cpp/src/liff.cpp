@@ -74,17 +74,19 @@ int sliceBatch(const LightField& lf, const detail::MemoryEstimate& need, double 
   if (need.total(batch) > limit)
     CV_Error(cv::Error::StsNoMem,
              cv::format("LiFF: a light field of %d x %d views of %d x %d pixels needs about "
-                        "%.0f MB (grey light field %.0f MB, 3 scale spaces of %.0f MB, %.0f MB "
-                        "while building one, %d focal slices of %.1f MB, slope survey %.0f MB), "
+                        "%.0f MB (grey light field %.0f MB, %d scale space(s) of %.0f MB, %.0f MB "
+                        "while building one, %d focal slice(s) of %.1f MB, slope survey %.0f MB, "
+                        "%.0f MB for %s%.0f keypoints), "
                         "more than the memory "
                         "limit of %.4g MB (%s); "
                         "expected a light field that fits: crop or downsample the views, or "
                         "raise the limit with setMemoryLimitMB",
                         lf.T, lf.S, lf.V, lf.U, need.total(1) / kBytesPerMB,
-                        need.lightFieldBytes / kBytesPerMB, need.windowSliceBytes / kBytesPerMB,
-                        need.buildBytes / kBytesPerMB, need.slicesAhead(1),
-                        need.focalSliceBytes / kBytesPerMB, need.surveyBytes / kBytesPerMB,
-                        limit / kBytesPerMB,
+                        need.lightFieldBytes / kBytesPerMB, need.heldSlices(1),
+                        need.sliceBytes / kBytesPerMB, need.scratchBytes / kBytesPerMB,
+                        need.focalSlices(1), need.focalSliceBytes / kBytesPerMB,
+                        need.surveyBytes / kBytesPerMB, need.keypointTotal() / kBytesPerMB,
+                        need.describing ? "" : "about ", need.keypoints, limit / kBytesPerMB,
                         automatic ? "automatic: the memory available now" : "setMemoryLimitMB"));
   return batch;
 }
@@ -137,6 +139,11 @@ class LiFF_Impl : public LiFF {
   SlopeRangeReport getSlopeRangeReport() const override {
     std::lock_guard<std::mutex> lock(lastMutex_);
     return lastReport_;
+  }
+  detail::MemoryEstimate lastMemoryEstimate(int& batch) const {
+    std::lock_guard<std::mutex> lock(lastMutex_);
+    batch = lastBatch_;
+    return lastEstimate_;
   }
 
   // --- Feature2D ----------------------------------------------------------------------
@@ -194,13 +201,18 @@ class LiFF_Impl : public LiFF {
   void remember(SlopeRangeReport report);
   // Fits the memory limit (the slices built at once, `batch`) and converts `input`
   // into `lf`, whose sizes checkLightField set; returns the memory estimate.
+  // `describing`: for compute(), the `described` keypoints given; `wantDescriptors`:
+  // descriptors are returned.
   detail::MemoryEstimate convert(const Parameters& parameters, const cv::Mat& input, LightField& lf,
-                                 int& batch) const;
+                                 int& batch, bool describing, size_t described,
+                                 bool wantDescriptors) const;
 
   Parameters parameters_;
   double memoryLimitMB_ = 0;
   mutable std::mutex lastMutex_;  // guards the last call's report (calls may be concurrent)
   SlopeRangeReport lastReport_;
+  detail::MemoryEstimate lastEstimate_;  // the last call's memory estimate, its batch
+  int lastBatch_ = 0;
 };
 
 SlopePlan LiFF_Impl::planSlices(const Parameters& parameters, const LightField& lf, int batch,
@@ -265,13 +277,22 @@ void LiFF_Impl::remember(SlopeRangeReport report) {
 }
 
 detail::MemoryEstimate LiFF_Impl::convert(const Parameters& parameters, const cv::Mat& input,
-                                          LightField& lf, int& batch) const {
+                                          LightField& lf, int& batch, bool describing,
+                                          size_t described, bool wantDescriptors) const {
   // Memory check before the grey conversion, the largest single allocation.
   const int octaves = detail::numOctaves(lf.viewSize(), parameters.firstOctave);
-  detail::MemoryEstimate need = detail::sliceMemory(lf.viewSize(), parameters.nOctaveLayers,
-                                                    octaves, parameters.firstOctave);
+  detail::MemoryEstimate need = detail::sliceMemory(
+      lf.viewSize(), parameters.nOctaveLayers, octaves, parameters.firstOctave, describing,
+      described,
+      wantDescriptors ? detail::kDescriptorSize * int(CV_ELEM_SIZE(parameters.descriptorType)) : 0);
   need.lightFieldBytes = detail::conversionBytes(input, lf);
-  if (detail::automaticRange(parameters))  // alpha (2 or 4 channels) may become weights
+  if (!detail::automaticRange(parameters))
+    need.planSlices = detail::uniformPlan(parameters, lf.T, lf.S).size();
+  else if (!detail::surveyed(lf.T, lf.S))  // one or two views: a plan of their counts alone
+    // (automaticPlan reads no pixel there: lf is not converted yet)
+    need.planSlices = detail::automaticPlan(lf, parameters, 1).size();
+  else if (!(describing && parameters.numSlopes == 0))  // compute() skips it (planSlices)
+    // alpha (2 or 4 channels) may become weights
     need.surveyBytes = detail::surveyMemoryBytes(lf, input.channels() % 2 == 0);
   batch = sliceBatch(lf, need, memoryLimitMB_, need.nearLimit);
   detail::convertLightField(input, lf);
@@ -285,7 +306,7 @@ std::vector<double> LiFF_Impl::slopesFor(cv::InputArray image) {
   detail::installWorkingMemory();
   if (!detail::automaticRange(parameters) || (lf.T == 1 && lf.S == 1)) return slopesFor(lf.T, lf.S);
   int batch = 1;
-  convert(parameters, input, lf, batch);
+  convert(parameters, input, lf, batch, false, 0, false);
   return planSlices(parameters, lf, batch, nullptr).slopes;
 }
 
@@ -300,7 +321,15 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   detail::checkMask(mask, lf.viewSize());
   if (!detail::automaticRange(parameters)) detail::uniformPlan(parameters, lf.T, lf.S);  // checks
   int batch = 1;
-  const detail::MemoryEstimate need = convert(parameters, input, lf, batch);
+  const bool wantDescriptors = descriptorsOut.needed();
+  const detail::MemoryEstimate need =
+      convert(parameters, input, lf, batch, useProvidedKeypoints,
+              useProvidedKeypoints ? keypoints.size() : 0, wantDescriptors);
+  {
+    std::lock_guard<std::mutex> lock(lastMutex_);
+    lastEstimate_ = need;
+    lastBatch_ = batch;
+  }
   const SlopePlan slices =
       planSlices(parameters, lf, batch, useProvidedKeypoints ? &keypoints : nullptr);
   SlopeRangeReport report = planReport(parameters, lf, slices);
@@ -308,7 +337,6 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
   // of sizes the detection does not use) go back now rather than sit beside its own.
   if (need.nearLimit) releaseWorkingMemory();
 
-  const bool wantDescriptors = descriptorsOut.needed();
   Call call{parameters,
             lf,
             slices,
@@ -356,6 +384,12 @@ cv::Ptr<LiFF> LiFF::create(int nfeatures, int nOctaveLayers, double contrastThre
   LIFF_PARAMETERS(LIFF_SET_PARAMETER)
 #undef LIFF_SET_PARAMETER
   return create(parameters);
+}
+
+detail::MemoryEstimate detail::lastMemoryEstimate(const LiFF& detector, int& batch) {
+  batch = 0;
+  const auto* impl = dynamic_cast<const LiFF_Impl*>(&detector);
+  return impl != nullptr ? impl->lastMemoryEstimate(batch) : detail::MemoryEstimate();
 }
 
 }  // namespace liff

@@ -93,16 +93,24 @@ double scaleSpaceBytes(cv::Size viewSize, int layers, int octaves, int firstOcta
   return pixels * (gaussians + dogs) * sizeof(float);
 }
 
-MemoryEstimate sliceMemory(cv::Size viewSize, int layers, int octaves, int firstOctave) {
+MemoryEstimate sliceMemory(cv::Size viewSize, int layers, int octaves, int firstOctave,
+                           bool describing, size_t described, int descriptorBytes) {
   MemoryEstimate need;
+  need.describing = describing;
   if (octaves < 1) return need;
-  const double full = scaleSpaceBytes(viewSize, layers, octaves, firstOctave, false);
-  need.windowSliceBytes = scaleSpaceBytes(viewSize, layers, octaves, firstOctave, true);
-  // The rest of a full pyramid (the build scratch) and the upsampled base.
-  need.buildBytes =
-      full - need.windowSliceBytes + double(firstOctaveSize(viewSize, firstOctave).area()) * sizeof(float);
+  const double firstOctavePixels = double(firstOctaveSize(viewSize, firstOctave).area());
+  need.sliceBytes = scaleSpaceBytes(viewSize, layers, octaves, firstOctave, !describing);
+  // BuildScratch: the upsampled base (firstOctave 0 blurs the focal slice itself) and,
+  // for a detection-only pyramid, three first-octave images for the layers it drops.
+  const int images = (firstOctave < 0 ? 1 : 0) + (describing ? 0 : 3);
+  need.scratchBytes = images * firstOctavePixels * sizeof(float);
   need.focalSliceBytes = double(viewSize.area()) * sizeof(float);
   need.slicesPerPass = kSlicesPerPass;
+  need.keypoints = describing ? double(described) : kKeypointsPerPixel * firstOctavePixels;
+  // Detection writes each batch's descriptors into a block, then copies them, sorted,
+  // into the output; compute() into a zeroed array through a block per group of slices,
+  // then into the output.
+  need.keypointBytes = (describing ? 3.0 : 2.0) * descriptorBytes + kKeypointRecordBytes;
   return need;
 }
 

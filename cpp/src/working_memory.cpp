@@ -89,6 +89,14 @@ class ReusingAllocator : public cv::MatAllocator {
     return freeBytes_;
   }
 
+  // The most bytes in use plus kept since the last reset; a reset starts from now's.
+  size_t heldPeak(bool reset) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const size_t peak = heldPeak_;
+    if (reset) heldPeak_ = inUseBytes_ + freeBytes_;
+    return peak;
+  }
+
  private:
   // A kept buffer of `bytes` or a little more (best fit), else a new one.
   uchar* take(size_t bytes) const {
@@ -118,6 +126,7 @@ class ReusingAllocator : public cv::MatAllocator {
     capacity_[data] = bytes;
     lastUse_[data] = generation_;
     inUseBytes_ += bytes;
+    heldPeak_ = std::max(heldPeak_, inUseBytes_ + freeBytes_);
     return data;
   }
 
@@ -160,6 +169,7 @@ class ReusingAllocator : public cv::MatAllocator {
   mutable std::unordered_map<void*, unsigned long> lastUse_;   // every buffer of ours
   mutable unsigned long generation_ = 0;                       // calls begun
   mutable size_t freeBytes_ = 0, inUseBytes_ = 0, peakBytes_ = 0;
+  mutable size_t heldPeak_ = 0;  // the most in use plus kept since heldPeak(true)
   bool enabled_ = true;
 };
 
@@ -198,6 +208,8 @@ void releaseWorkingMemory() {
 }
 
 size_t keptWorkingMemoryBytes() { return detail::allocator().keptBytes(); }
+
+size_t detail::workingMemoryPeakBytes(bool reset) { return detail::allocator().heldPeak(reset); }
 
 double availableMemoryBytes() { return detail::availableMemoryBytes(); }
 

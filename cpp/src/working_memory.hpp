@@ -29,5 +29,10 @@ constexpr double kKeptBufferMinFill = 0.5;
 /// (kept buffers no call has used since the one before are given back on a miss).
 void installWorkingMemory();
 
+/// The most bytes of the core's buffers (those of kKeptBufferMinBytes and more) in use
+/// and kept at once since the last reset; `reset` starts the count again from what is
+/// held now. For the tests and benchmarks/memory.py, which compare it with the estimate.
+size_t workingMemoryPeakBytes(bool reset);
+
 }  // namespace detail
 }  // namespace liff

@@ -15,7 +15,8 @@ RANGE_END_SHARE: float
 # liff's own test and benchmark hooks (liff/hooks.hpp; not API): set_profiling(enabled),
 # reset_profile(), stage_seconds(in_loops=False) -> {stage: seconds},
 # set_slice_batch(batch), parallel_loops() -> [(name, wall, [task seconds])],
-# survey(detector, lf) -> [slope]
+# survey(detector, lf) -> [slope], memory_estimate(detector) -> {part: bytes},
+# working_memory_peak(reset=False) -> bytes
 _hooks: types.ModuleType
 # (name, type name, default, getter/setter suffix, help), in create()'s order
 PARAMETERS: Tuple[Tuple[str, str, Union[int, float, bool], str, str], ...]

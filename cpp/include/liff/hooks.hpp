@@ -1,8 +1,9 @@
 // Hooks for liff's own tests and benchmarks (benchmarks/core_speed.py, stages.py,
-// speed.py, slopes.py): not part of the API, and free to change in any release. The
+// speed.py, slopes.py, memory.py): not part of the API, and free to change in any release. The
 // Python package exposes them as the private submodule liff._core._hooks.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,20 @@ struct ParallelLoop {
 };
 /// The loops profiled since the last reset, in call order.
 std::vector<ParallelLoop> parallelLoops();
+
+/// The memory estimate (bytes) the last detect/detectAndCompute/compute call of
+/// `detector` checked its limit with (docs/RELIABILITY.md, "Memory"): the total for the
+/// slices it built at once (`batch`; 0 and all zero before the first call) and two of its
+/// parts.
+struct MemoryEstimateParts {
+  int batch = 0;
+  double total = 0, lightField = 0, survey = 0;
+};
+MemoryEstimateParts lastMemoryEstimate(const LiFF& detector);
+
+/// The most bytes of the core's buffers (a page or more) in use and kept at once since
+/// the last reset; `reset` starts the count again from what is held now.
+size_t workingMemoryPeakBytes(bool reset);
 
 /// The slopes (pixels per view step) of the features the automatic range's survey keeps
 /// for `lightField` (as detectAndCompute takes it) with `detector`'s parameters,

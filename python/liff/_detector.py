@@ -8,7 +8,7 @@ import math
 import os
 import textwrap
 import warnings
-from typing import List, NamedTuple, Optional, Tuple, Union
+from typing import List, NamedTuple, Optional, Tuple, Union, cast
 
 import cv2
 import numpy as np
@@ -262,13 +262,15 @@ class LiFF(_core.LiFF):
             mask = masks
         if _is_list_of_inputs(lf):
             per_input = _per_input(mask, len(lf), "masks")
-            return tuple(self.detect(item, m) for item, m in zip(lf, per_input))
+            return tuple(cast(KeyPoints, self.detect(item, m)) for item, m in zip(lf, per_input))
         array = _as_light_field(lf)
         rows, _ = self._run(array, _as_mask(mask), None, False)
         self._check_range_ends(array, rows, mask is not None)
         return rows_to_keypoints(rows)
 
-    def compute(self, lf, keypoints, descriptors=None) -> Tuple[KeyPoints, Optional[np.ndarray]]:
+    def compute(self, lf, keypoints, descriptors=None
+                ) -> Union[Tuple[KeyPoints, Optional[np.ndarray]],
+                           Tuple[Tuple[KeyPoints, ...], Tuple[Optional[np.ndarray], ...]]]:
         """Describes the given keypoints, each on the focal slice nearest its slope.
 
         Every keypoint keeps its place, as with ``cv2.SIFT.compute``: one that cannot
@@ -289,8 +291,12 @@ class LiFF(_core.LiFF):
             if len(lf) and any(k is None for k in per_input):
                 raise TypeError("compute() of a list of inputs takes a list of keypoint "
                                 "lists, one per input (as cv2.SIFT.compute)")
-            results = [self.compute(item, k) for item, k in zip(lf, per_input)]
+            results = [self._compute_one(item, k) for item, k in zip(lf, per_input)]
             return tuple(k for k, _ in results), tuple(d for _, d in results)
+        return self._compute_one(lf, keypoints)
+
+    def _compute_one(self, lf, keypoints) -> Tuple[KeyPoints, Optional[np.ndarray]]:
+        """:meth:`compute` of one input."""
         rows = keypoints_to_rows(keypoints)
         rows, desc = self._run(_as_light_field(lf), None, rows, True)
         return rows_to_keypoints(rows), self._descriptors_out(desc, len(rows))
@@ -468,11 +474,11 @@ def _bind(args: tuple, kwargs: dict) -> dict:
     return dict(bound.arguments)
 
 
-LiFF.__doc__ = LiFF.__doc__.format(parameters=_parameters_docstring().strip())
+LiFF.__doc__ = (LiFF.__doc__ or "").format(parameters=_parameters_docstring().strip())
 # (Signatures of the functions themselves: inspect drops the first, self or cls, when
 # they are bound.)
-LiFF.__init__.__signature__ = _SIGNATURE.replace(parameters=[
+LiFF.__init__.__signature__ = _SIGNATURE.replace(parameters=[  # type: ignore[attr-defined]
     inspect.Parameter("self", inspect.Parameter.POSITIONAL_ONLY), *_SIGNATURE.parameters.values()])
-LiFF.create.__func__.__signature__ = _SIGNATURE.replace(parameters=[
+LiFF.create.__func__.__signature__ = _SIGNATURE.replace(parameters=[  # type: ignore[attr-defined]
     inspect.Parameter("cls", inspect.Parameter.POSITIONAL_ONLY), *_SIGNATURE.parameters.values()])
 LiFF_create = LiFF.create

@@ -145,7 +145,7 @@ def robust_rigid_fit(X1: np.ndarray, X2: np.ndarray, max_error: float, rng: np.r
         inside = d2 <= limit
         return inside, inside.sum(axis=1), np.where(inside, d2, 0.0).sum(axis=1)
 
-    best = None  # (count, sum, R, t, inliers)
+    best: Optional[tuple] = None  # (count, sum, R, t, inliers)
     drawn, needed = 0, max_trials
     while drawn < min(needed, max_trials):
         sample = sample_triples(rng, n, batch)
@@ -169,6 +169,8 @@ def robust_rigid_fit(X1: np.ndarray, X2: np.ndarray, max_error: float, rng: np.r
             needed = 0
         elif miss < 1:
             needed = int(np.ceil(3 * np.log(1 - confidence) / np.log(miss)))
+    if best is None:  # (max_trials < 1: no sample drawn)
+        raise ValueError(f"max_trials = {max_trials}; expected at least 1")
     return best[2], best[3], best[4]
 
 

@@ -133,8 +133,9 @@ class Capture:
     def slope_range(self) -> Tuple[float, float]:
         """The smallest and largest true slope (pixels per view step) in the centre views
         of all poses, from :meth:`depth_map`: the range a detector must search."""
-        slopes = [self.slope_at_depth(d[np.isfinite(d)]) for d in map(self.depth_map, range(len(self.poses)))]
-        slopes = np.concatenate([s.ravel() for s in slopes]) if slopes else np.zeros(0)
+        per_pose = [self.slope_at_depth(d[np.isfinite(d)])
+                    for d in map(self.depth_map, range(len(self.poses)))]
+        slopes = np.concatenate([s.ravel() for s in per_pose]) if per_pose else np.zeros(0)
         if slopes.size == 0:
             raise ValueError("no patch is seen from any pose; expected a capture of a scene")
         return float(slopes.min()), float(slopes.max())
@@ -312,7 +313,7 @@ def render_light_field(
 
 
 def _cast(patches: Sequence[Patch], rotation: np.ndarray, centre: np.ndarray,
-          x: np.ndarray, y: np.ndarray, background: float) -> np.ndarray:
+          x: np.ndarray, y: np.ndarray, background: float) -> Tuple[np.ndarray, np.ndarray]:
     """Intensity and depth along the rays (x[j], y[i], 1) of a camera (world-to-camera
     rotation, centre in world), nearest patch first; each shape (len(y), len(x)),
     float32 (depth ``inf`` where no patch is hit)."""

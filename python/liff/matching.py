@@ -70,7 +70,7 @@ def ratio_matches(descriptors_a: Optional[np.ndarray], descriptors_b: Optional[n
         raise ValueError(f"descriptors of widths {a.shape[1]} (a) and {b.shape[1]} (b); expected "
                          "the same width (128 for SIFT and LiFF)")
     mask = None
-    if metric_sizes is not None:
+    if metric_sizes is not None and max_size_factor is not None:  # (both or neither)
         mask = size_mask(metric_sizes, len(a), len(b), max_size_factor)
     matcher = cv2.BFMatcher(cv2.NORM_L2)
     knn = matcher.knnMatch(a, b, k=2) if mask is None else matcher.knnMatch(a, b, k=2, mask=mask)
@@ -117,8 +117,8 @@ def verify(keypoints_a: Sequence[cv2.KeyPoint], keypoints_b: Sequence[cv2.KeyPoi
     inliers = np.zeros(len(matches), bool)
     if len(matches) < min_matches:
         return MatchResult(matches, inliers, None)
-    pa = np.float32([keypoints_a[m.queryIdx].pt for m in matches])
-    pb = np.float32([keypoints_b[m.trainIdx].pt for m in matches])
+    pa = np.array([keypoints_a[m.queryIdx].pt for m in matches], np.float32)
+    pb = np.array([keypoints_b[m.trainIdx].pt for m in matches], np.float32)
     if model == "homography":
         estimate, mask = cv2.findHomography(pa, pb, cv2.RANSAC, threshold)
     else:

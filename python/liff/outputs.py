@@ -120,12 +120,12 @@ def refuse_inputs(outputs: Iterable[PathLike], inputs: Iterable[PathLike],
         refuse_special(output, f"a regular file or folder for {option}, or a new path")
     inputs = [os.fspath(i) for i in inputs if os.path.exists(i)]
     folders = [os.path.realpath(i) + os.sep for i in inputs if os.path.isdir(i)]
-    for output in map(os.fspath, outputs):
+    for output in outputs:
         same = next((i for i in inputs if os.path.exists(output) and os.path.samefile(output, i)),
                     None)
         inside = next((f for f in folders if os.path.realpath(output).startswith(f)), None)
         if same is not None or inside is not None:
             what = (f"is the input {same}" if same is not None else
-                    f"lies inside the input folder {inside.rstrip(os.sep)}")
+                    f"lies inside the input folder {str(inside).rstrip(os.sep)}")
             raise ValueError(f"{output}: {what}; expected an output that is not an input "
                              f"(choose another {option}); nothing was written")

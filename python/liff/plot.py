@@ -97,7 +97,8 @@ def dot_radius(scale: int) -> int:
 
 def _pixel(point) -> Tuple[int, int]:
     """The integer pixel nearest to a point (x, y)."""
-    return tuple(int(v) for v in np.round(np.asarray(point, float)))
+    x, y = np.round(np.asarray(point, float))
+    return int(x), int(y)
 
 
 def text_scale(height: int) -> float:

@@ -136,7 +136,7 @@ def apply_gamma(light_field: np.ndarray, gamma: float = 0.5) -> np.ndarray:
 
 def _check_gamma(gamma) -> None:
     try:
-        valid = isinstance(gamma, numbers.Real) and math.isfinite(gamma) and gamma > 0
+        valid = isinstance(gamma, numbers.Real) and math.isfinite(gamma) and float(gamma) > 0
     except OverflowError:  # an int beyond float
         valid = False
     if not valid:
@@ -211,12 +211,12 @@ def _check_equalize(method, cutoff_percent, bins) -> int:
     """Raises ValueError for bad :func:`equalize` options; returns ``bins`` as an int."""
     if not (isinstance(method, str) and method in _METHODS):
         raise ValueError(f"method = {method!r}; expected 'stretch' or 'cdf'")
-    if not (isinstance(cutoff_percent, numbers.Real) and 0 <= cutoff_percent < 50):
+    if not (isinstance(cutoff_percent, numbers.Real) and 0 <= float(cutoff_percent) < 50):
         raise ValueError(f"cutoff_percent = {cutoff_percent!r}; expected a value in [0, 50)")
     whole = False
     if isinstance(bins, numbers.Real) and not isinstance(bins, (bool, np.bool_)):
         try:
-            whole = math.isfinite(bins) and int(bins) == bins
+            whole = math.isfinite(bins) and float(bins).is_integer()
         except (OverflowError, TypeError, ValueError):
             pass
     if not whole or bins < 2:
@@ -244,7 +244,7 @@ def _equalize(result: np.ndarray, method: str, cutoff_percent: float, bins: int)
     # below 1 - cutoff (as LiFF_HistEqualize).
     centres = (edges[:-1] + edges[1:]) / 2
     lower = centres[np.searchsorted(cdf[1:], cutoff, side="left")]
-    upper = centres[max(np.searchsorted(cdf[1:], 1.0 - cutoff, side="right") - 1, 0)]
+    upper = centres[max(int(np.searchsorted(cdf[1:], 1.0 - cutoff, side="right")) - 1, 0)]
     if upper <= lower:  # almost all samples in one bin: fall back to the full range
         occupied = np.flatnonzero(counts)
         lower, upper = centres[occupied[0]], centres[occupied[-1]]

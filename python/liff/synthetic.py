@@ -251,7 +251,7 @@ def textured_plane(shape: Tuple[int, int, int, int] = (3, 3, 256, 256), slope: f
     for t in range(T):
         for s in range(S):
             dx, dy = -slope * (s - (S - 1) / 2), -slope * (t - (T - 1) / 2)
-            warp = np.float32([[1, 0, margin - dx], [0, 1, margin - dy]])
+            warp = np.array([[1, 0, margin - dx], [0, 1, margin - dy]], np.float32)
             lf[t, s] = cv2.warpAffine(texture, warp, (U, V),
                                       flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP)
     return lf
@@ -299,7 +299,7 @@ def textured_layers(
             for slope, texture, alpha in layers:
                 # Content at centre-view (x, y) appears at (x + dx, y + dy) in this view.
                 dx, dy = -slope * (s - (S - 1) / 2), -slope * (t - (T - 1) / 2)
-                warp = np.float32([[1, 0, dx], [0, 1, dy]])
+                warp = np.array([[1, 0, dx], [0, 1, dy]], np.float32)
                 warped = cv2.warpAffine(texture, warp, (U, V), flags=cv2.INTER_LINEAR,
                                         borderMode=cv2.BORDER_REFLECT)
                 cover = cv2.warpAffine(alpha, warp, (U, V), flags=cv2.INTER_LINEAR,

@@ -15,7 +15,7 @@ import sys
 import threading
 import time
 from contextlib import contextmanager
-from typing import Iterable, Optional
+from typing import Iterable, Optional, Sized
 
 QUIET = False
 """Set by the commands' ``--quiet``: no bars, progress or step lines (errors still shown)."""
@@ -63,7 +63,7 @@ class LineProgress:
     def __init__(self, iterable: Optional[Iterable] = None, desc: str = "liff",
                  total: Optional[int] = None, unit: str = "file"):
         self.iterable = iterable
-        if total is None and iterable is not None and hasattr(iterable, "__len__"):
+        if total is None and isinstance(iterable, Sized):
             total = len(iterable)
         self.desc, self.total, self.unit, self.n = desc, total, unit, 0
         self.item: Optional[str] = None

@@ -115,8 +115,9 @@ def positive_int(value, name: str, source: str, minimum: int = 1,
         number = int(value)
     elif isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_)):
         try:
-            if math.isfinite(value) and int(value) == value:
-                number = int(value)
+            as_float = float(value)
+            if math.isfinite(as_float) and as_float.is_integer():
+                number = int(as_float)
         except (OverflowError, TypeError, ValueError):  # e.g. a Fraction beyond float
             pass
     if number is None or number < minimum:

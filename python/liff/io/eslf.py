@@ -226,13 +226,15 @@ def read_eslf(path: PathLike, n: Optional[int] = None, keep=None) -> LightFieldF
     """
     path = os.fspath(path)
     detected = n is None
-    if not detected:
-        n = positive_int(n, "lenslet size n", path, 2, "a whole number of pixels >= 2 (each "
-                         "lenslet holds n x n views; n = 1 is an ordinary image)")
+    size = 0  # the lenslet size n, given or detected
+    if n is not None:
+        size = positive_int(n, "lenslet size n", path, 2, "a whole number of pixels >= 2 (each "
+                            "lenslet holds n x n views; n = 1 is an ordinary image)")
     image = read_image(path, copies=2)  # the image and the light field rearranged from it
     evidence: dict = {}
     if detected:
-        n, evidence = detect_lenslet_size(image, source=path)
+        size, evidence = detect_lenslet_size(image, source=path)
+    n = size
     height, width = image.shape[:2]
     V, U = height // n, width // n
     if V == 0 or U == 0:

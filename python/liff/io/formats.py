@@ -150,7 +150,7 @@ class InputFormat:
 
     def recognises(self, path: str, names: Sequence[str] = ()) -> bool:
         """Whether ``path`` has this format's names (for a folder: ``names``, its files)."""
-        if self.folder:
+        if self.folder and self.folder_test is not None:
             return self.folder_test(names)
         return _fits(os.path.basename(path), self.names)
 

@@ -11,7 +11,7 @@ import configparser
 import os
 import re
 from dataclasses import dataclass, field
-from typing import Optional, Union
+from typing import Dict, Optional, Tuple, Union
 
 import cv2
 import numpy as np
@@ -85,7 +85,8 @@ def read_hci(folder: PathLike) -> HciScene:
     if not views:
         raise ValueError(f"{folder}: no input_CamNNN.png views; expected an HCI scene folder")
 
-    parameters, T, S = {}, None, None
+    parameters: Dict[str, Dict[str, str]] = {}
+    grid: Optional[Tuple[int, int]] = None  # parameters.cfg's (T, S)
     cfg_path = os.path.join(folder, "parameters.cfg")
     refuse_special(cfg_path, "an HCI parameters.cfg")
     if os.path.isfile(cfg_path):
@@ -107,7 +108,10 @@ def read_hci(folder: PathLike) -> HciScene:
             if T < 1 or S < 1 or T * S > MAX_VIEWS:
                 raise ValueError(f"{cfg_path}: grid num_cams_y x num_cams_x = {T}x{S}; expected "
                                  f"a positive grid of at most {MAX_VIEWS} views")
-    if T is None:  # no grid given: the square grid whose last view is the last numbered
+            grid = (T, S)
+    if grid is not None:
+        T, S = grid
+    else:  # no grid given: the square grid whose last view is the last numbered
         T = S = int(round(np.sqrt(max(views) + 1)))
         if T * S != max(views) + 1:
             raise ValueError(f"{folder}: views numbered up to input_Cam{max(views):03d}.png and no "
@@ -122,8 +126,8 @@ def read_hci(folder: PathLike) -> HciScene:
         check_incomplete(folder, (T, S), len(views), (f"input_Cam{i:03d}.png" for i in range(T * S)
                                                       if i not in views))
     channels = 3 if complete else 4  # BGR, or BGR + alpha
-    first = None
-    lf = None
+    first: Optional[Tuple[int, ...]] = None  # the first view's shape
+    lf: Optional[np.ndarray] = None
     for index in sorted(views):
         refuse_special(views[index], "an HCI view (PNG image)")
         size = header_size(views[index])
@@ -141,10 +145,12 @@ def read_hci(folder: PathLike) -> HciScene:
             lf = (np.empty if complete else np.zeros)((T, S) + first[:2] + (channels,), np.uint8)
         elif image.shape != first:
             raise _size_differs(views[index], image.shape, first)
+        assert lf is not None  # (allocated with the first view)
         lf[index // S, index % S, ..., :3] = image
         if not complete:
             lf[index // S, index % S, ..., 3] = 255
 
+    assert first is not None and lf is not None  # (views is not empty)
     meta = parameters.get("meta", {})
     disp_min = _number(meta["disp_min"], float, "meta disp_min", cfg_path) if "disp_min" in meta else None
     disp_max = _number(meta["disp_max"], float, "meta disp_max", cfg_path) if "disp_max" in meta else None

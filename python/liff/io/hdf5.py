@@ -19,7 +19,7 @@ wrong sign, flip an axis (``lf[::-1]``) and compare.
 
 from __future__ import annotations
 
-from typing import Optional
+from typing import Dict, Optional
 
 import numpy as np
 
@@ -75,7 +75,7 @@ def read_hdf5(path: PathLike, key: Optional[str] = None) -> LightFieldFile:
                              f"HDF5 written in C order; read it as a .mat file (format='mat')")
     try:
         with h5py.File(path, "r") as f:
-            found = {}  # dataset path -> number of axes
+            found: Dict[str, int] = {}  # dataset path -> number of axes
             f.visititems(lambda name, node: found.__setitem__(name, len(node.shape))
                          if isinstance(node, h5py.Dataset) else None)
             datasets = sorted(name for name, axes in found.items() if axes in (4, 5))

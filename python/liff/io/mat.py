@@ -23,7 +23,7 @@ returns the axes reversed, (c, u, v, s, t), which is undone here.
 from __future__ import annotations
 
 import os
-from typing import Optional
+from typing import Optional, cast
 
 import numpy as np
 
@@ -179,8 +179,9 @@ def _read_v5(path: str, key: Optional[str], scipy_io):
         else:
             value = _matv5.loadmat_checked(scipy_io, data, key, room)
     except _matv5.TooLarge as e:
+        # (raised only under a bound: room is a number)
         raise over_budget(f"{path}[{key!r}]", e.claimed, "reading the variable (at least)",
-                          room, origin) from None
+                          cast(int, room), origin) from None
     except _matv5.Damaged as e:
         raise ValueError(f"{path}[{key!r}]: not read ({e}); expected a numeric light field, or "
                          f"a struct of numeric, char, cell and struct arrays") from None

@@ -59,7 +59,7 @@ def compile_pattern(pattern: Union[str, Pattern, None], where: Optional[str],
     try:
         regex = re.compile(pattern)
     except re.error as e:
-        raise ValueError(f"{at}{name} {shlex.quote(pattern)} is not a regular expression ({e}); expected "
+        raise ValueError(f"{at}{name} {shlex.quote(str(pattern))} is not a regular expression ({e}); expected "
                          f"a regular expression with {GROUPS}") from None
     groups = set(regex.groupindex)
     if not ({"t", "s"} <= groups or "index" in groups):
@@ -80,7 +80,7 @@ def _indices_in_runs(folder: str, runs: Dict[str, Tuple[int, ...]]) -> Dict[str,
     id before them, a frame number after them); of the pairs for which this holds the
     last is taken, so ``0421_03_07`` is row 3, column 7.
     """
-    lengths = {}
+    lengths: Dict[int, str] = {}
     for name, numbers in runs.items():
         lengths.setdefault(len(numbers), name)
     if len(lengths) > 1:
@@ -125,7 +125,8 @@ def _find_views(folder: str, regex: Optional[Pattern], grid, linear: bool
     """{(t, s) as numbered in the names: file name} for the folder's views; with a
     running index (``linear``), {(index, 0): file name}."""
     if linear and grid is None:
-        raise ValueError(f"{folder}: pattern {regex.pattern!r} numbers views by (?P<index>...); "
+        pattern = regex.pattern if regex is not None else None
+        raise ValueError(f"{folder}: pattern {pattern!r} numbers views by (?P<index>...); "
                          f"expected grid=(T, S) to go with it")
     keys: Dict[str, Tuple[int, int]] = {}
     runs: Dict[str, Tuple[int, ...]] = {}
@@ -250,12 +251,15 @@ def read_views(folder: PathLike, grid=None, pattern: Union[str, Pattern, None] =
 
     _check_light_field_fits(folder, (T, S), views, complete)
     light_field: Optional[np.ndarray] = None
+    reference: Optional[np.ndarray] = None  # the first view, and its name
+    first_name = ""
+    add_alpha = False
     for (t, s), name in sorted(views.items()):
         path = os.path.join(folder, name)
-        if light_field is not None:
+        if reference is not None:
             _check_view_not_larger(path, reference, first_name)
         image = read_image(path)
-        if light_field is None:
+        if light_field is None or reference is None:
             reference, first_name = image, name
             light_field, add_alpha = _allocate((T, S), image, complete)
         elif image.shape != reference.shape or image.dtype != reference.dtype:
@@ -270,6 +274,7 @@ def read_views(folder: PathLike, grid=None, pattern: Union[str, Pattern, None] =
     missing = [(t, s) for t in range(T) for s in range(S) if (t, s) not in views]
     metadata = {"grid": (T, S), "first_index": first, "files": files, "missing": missing,
                 "added_alpha": add_alpha}
+    assert light_field is not None  # (_find_views found at least one view)
     return LightFieldFile(light_field, "views", metadata, None, folder)
 
 

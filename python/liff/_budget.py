@@ -1,7 +1,7 @@
 """The memory budget: how many bytes a light field liff reads, and the detection that
 follows, may take.
 
-One mechanism serves the readers (``liff.io``) and the detector (``liff.cli.common.
+One mechanism serves the readers (``liff.io``) and the detector (``liff._detection.
 make_detector``): when :data:`memory_budget_bytes` is set (``liff.batch`` sets it on a
 Dask worker from the worker's memory limit), the room is that budget less what the
 process holds now (:func:`held_bytes`); otherwise it is the memory available now, as

@@ -197,7 +197,7 @@ def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] 
     """The light fields that PATH arguments name: each is a light field, a folder of
     light fields (each entry recognised by its names and content: liff.io.layout) or a
     glob pattern (quoted, so the shell left it); ``from_list`` is a text file of more,
-    one a line, each perhaps with reader options of its own (liff.cli.inputs). Repeats
+    one a line, each perhaps with reader options of its own (:func:`expand`). Repeats
     are dropped.
 
     Raises
@@ -242,7 +242,7 @@ def _glob(pattern: str) -> List[str]:
 def expand_args(args: argparse.Namespace, options: dict, from_list: Optional[str] = None,
                 features: bool = False) -> None:
     """``args.paths`` expanded (:func:`expand_inputs`), ``args.inputs`` the inputs with
-    their format and reader options (liff.cli.inputs.Input), ``args.left_out`` what the
+    their format and reader options (:class:`Input`), ``args.left_out`` what the
     folders held that is not an input; the paths as given stay in ``args.given_paths``:
     a folder given is an input too, so nothing is written inside it (a later run over
     the folder would read the outputs as light fields)."""

@@ -11,6 +11,7 @@ import os
 import signal
 import sys
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from functools import partial
 from typing import Callable, List, Optional, Sequence, Tuple
 
 from ._core import setNumThreads
@@ -51,16 +52,20 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
         message = error_line(command, label(jobs[i]), str(error))
         (progress.write(message, file=sys.stderr) if progress else print(message, file=sys.stderr))
 
+    def settle(i: int, result: Callable[[], object]) -> None:
+        """Job i's result (``result()``, which raises the job's error), counted."""
+        try:
+            results[i] = result()
+            if done:
+                done(results[i])
+            finished(progress, None if failed(results[i]) else label(jobs[i]))
+        except (ValueError, OSError, MemoryError) as error:
+            report(i, error)
+            finished(progress, None)
+
     if workers <= 1 or len(jobs) <= 1:
         for i, job in enumerate(jobs):
-            try:
-                results[i] = function(*job)
-                if done:
-                    done(results[i])
-                finished(progress, None if failed(results[i]) else label(jobs[i]))
-            except (ValueError, OSError, MemoryError) as error:
-                report(i, error)
-                finished(progress, None)
+            settle(i, partial(function, *job))
     else:
         # Each worker gets its share of the cores: LiFF uses all of them by default, and
         # N processes that each did would oversubscribe the machine N times over.
@@ -70,15 +75,7 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
         try:
             futures = {pool.submit(function, *job): i for i, job in enumerate(jobs)}
             for future in as_completed(futures):
-                i = futures[future]
-                try:
-                    results[i] = future.result()
-                    if done:
-                        done(results[i])
-                    finished(progress, None if failed(results[i]) else label(jobs[i]))
-                except (ValueError, OSError, MemoryError) as error:
-                    report(i, error)
-                    finished(progress, None)
+                settle(futures[future], future.result)
         except BaseException:  # Ctrl-C, SIGTERM: stop now, not after the queued jobs
             stop_now(pool)
             raise

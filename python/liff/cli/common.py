@@ -140,7 +140,7 @@ def check_hloc_output(path: Optional[str], inputs: Sequence[str], flag: str, kin
     if os.path.exists(path) and not h5py.is_hdf5(path):
         raise ValueError(f"{path}: exists and is not an HDF5 file; expected a new {flag} path "
                          "or an hloc file to add to; nothing was written")
-    # lazy: liff.hloc defers pycolmap and SciPy (through liff.colmap)
+    # lazy: defers pycolmap (optional: liff[sfm]) and SciPy (liff.hloc imports liff.colmap)
     from ..hloc import check_file_kind
 
     try:

@@ -137,7 +137,7 @@ def checked_plan(args: argparse.Namespace) -> tuple:
     if args.hloc_images:
         refuse_inputs([args.hloc_images], common.protected_inputs(args), "--hloc-images")
     if args.hloc:  # before any output is written
-        # lazy: liff.hloc defers pycolmap and SciPy (through liff.colmap)
+        # lazy: defers pycolmap (optional: liff[sfm]) and SciPy (liff.hloc imports liff.colmap)
         from ..hloc import check_export
 
         check_export(args.hloc, [task.output for task in tasks] + [o.output for o in kept],
@@ -201,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
     if manifest:
         print(f"manifest: {manifest}")
     if args.hloc:
-        # lazy: liff.hloc defers pycolmap and SciPy (through liff.colmap)
+        # lazy: defers pycolmap (optional: liff[sfm]) and SciPy (liff.hloc imports liff.colmap)
         from ..hloc import add_feature_files
 
         written = [o.output for o in outcomes + kept if o.status != "failed"]

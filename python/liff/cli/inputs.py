@@ -2,4 +2,5 @@
 :func:`liff.batch.detect` expands its inputs too), named here as the command line had
 them."""
 
-from .._inputs import Input, describe, expand, read_list  # noqa: F401 (liff.cli.inputs.*)
+from .._inputs import (Input, describe, expand, list_line_parser, read_list,  # noqa: F401
+                       resolve_options)

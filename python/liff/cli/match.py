@@ -98,7 +98,7 @@ def check_hloc_options(args: argparse.Namespace) -> None:
                          "the features file its matches index)")
     if not args.hloc:
         return
-    # lazy: liff.hloc defers h5py, and pycolmap and SciPy (through liff.colmap)
+    # lazy: defers pycolmap (optional: liff[sfm]) and SciPy (liff.hloc imports liff.colmap)
     from ..hloc import features_in, check_pair_names, image_name
 
     common.check_hloc_output(args.hloc, [args.a, args.b], "--hloc", "matches")
@@ -134,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
               f"scene (expected at least {MIN_INLIERS}, and {CHANCE_FACTOR}x the {chance} that "
               "RANSAC keeps among randomly re-paired matches)", file=sys.stderr)
     if args.hloc:
-        # lazy: liff.hloc defers h5py, and pycolmap and SciPy (through liff.colmap)
+        # lazy: defers pycolmap (optional: liff[sfm]) and SciPy (liff.hloc imports liff.colmap)
         from ..hloc import feature_file_group, image_name, updated, write_matches
 
         digests = tuple(content_digest(feature_file_group(f)[0]) for f in (fa, fb))

@@ -95,9 +95,9 @@ def test_the_workers_profiler_is_paused_for_a_run_and_restarted_after(cluster, t
 
     def spy(*task):  # what a task's worker runs meanwhile (the workers are in this process)
         seen.append(_profiler_running(distributed.get_worker()))
-        return liff.cli.detect.Detected(0, (0.0, 0.0))
+        return liff.batch.Detected(0, (0.0, 0.0))
 
-    monkeypatch.setattr(liff.cli.detect, "detect_one", spy)
+    monkeypatch.setattr(liff.batch, "detect_one", spy)
     paths = write_light_fields(tmp_path, 2)
     tasks = [batch.Task(p, p + ".npz", None, {}, False, {}) for p in paths]
     outcomes = batch.run(tasks, cluster, worker_profiler=worker_profiler)
@@ -179,9 +179,9 @@ def test_a_task_takes_its_workers_threads_and_memory(tmp_path, monkeypatch):
                 light_field = np.ones((3, 3, 512, 512, 3), np.float32)  # 28 MiB read
                 after = liff.cli.common.make_detector({}).getMemoryLimitMB()
                 seen.append((liff.getNumThreads(), before, after, light_field.size))
-                return liff.cli.detect.Detected(0, (0.0, 0.0))
+                return liff.batch.Detected(0, (0.0, 0.0))
 
-            monkeypatch.setattr(liff.cli.detect, "detect_one", spy)
+            monkeypatch.setattr(liff.batch, "detect_one", spy)
             client.submit(batch.run_task, batch.Task(*small * 2, None, {}, False, {}),
                           pure=False).result()
             threads_seen, before, after, _ = seen[0]
@@ -209,10 +209,10 @@ def test_a_copy_detection_needs_is_made_before_the_memory_limit(tmp_path, monkey
         arrays.append(sys._getframe(1).f_locals["light_field"])
         return make(parameters)
 
-    monkeypatch.setattr(liff.cli.common, "make_detector", spy)
+    monkeypatch.setattr(liff._tasks, "make_detector", spy)
     for name in ("c", "f"):
-        liff.cli.detect.detect_one(str(tmp_path / f"{name}.npy"), str(tmp_path / f"{name}.npz"),
-                                   None, {}, False, {})
+        liff.batch.detect_one(str(tmp_path / f"{name}.npy"), str(tmp_path / f"{name}.npz"),
+                              None, {}, False, {})
     assert all(a.flags.c_contiguous for a in arrays)
     assert np.array_equal(load_features(tmp_path / "c.npz").descriptors,
                           load_features(tmp_path / "f.npz").descriptors)
@@ -284,7 +284,7 @@ def test_an_unreadable_sub_folder_is_skipped_with_a_warning(tmp_path, monkeypatc
     monkeypatch.setattr(common.os, "scandir", refusing)
     with pytest.warns(LiffWarning, match="locked: cannot list the folder.*skipped"):
         assert common.expand_inputs([str(tmp_path / "data")], {}) == paths
-    assert common._glob(str(tmp_path / "data" / "a**" / "*.npy")) == paths  # (** in a name: *)
+    assert liff._inputs._glob(str(tmp_path / "data" / "a**" / "*.npy")) == paths  # (** in a name: *)
 
 
 def test_batch_detect_takes_one_path_and_refuses_bad_arguments_up_front(tmp_path):

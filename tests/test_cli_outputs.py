@@ -172,7 +172,7 @@ def test_a_failed_write_leaves_the_old_file_and_no_partial_one(disks, tmp_path, 
             f.write(b"PK\x03\x04 half a zip")
         raise OSError("disk full")
 
-    monkeypatch.setattr("liff.cli.detect.save_features", broken)
+    monkeypatch.setattr("liff._tasks.save_features", broken)
     assert _detect(disks, out, "--nfeatures", "5") == 1
     assert out.read_bytes() == before
     assert sorted(os.listdir(tmp_path)) == ["d.npz", "f.npz"]

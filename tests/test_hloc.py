@@ -242,7 +242,8 @@ def test_keypoints_in_centre_view_are_where_that_view_shows_them(views):
 
 
 def test_even_view_counts_export_the_centre_views_frame(tmp_path, monkeypatch):
-    from liff.cli import detect as detect_cli, main
+    from liff import _tasks as detect_cli
+    from liff.cli import main
     from liff.feature_file import keypoints_in_centre_view, load_features
 
     drawn = []

@@ -7,6 +7,7 @@ pixel column, channel) instead of an image. Keypoints and descriptors are what
 disparity) is in ``class_id`` and read with :func:`keypoint_slopes`.
 """
 
+from ._version import __version__  # noqa: F401 (liff.__version__)
 from ._core import (getNumThreads, getWorkingMemoryReuse, keptWorkingMemoryBytes, opencvVersion,
                     releaseWorkingMemory, setNumThreads, setWorkingMemoryReuse)
 from ._detector import PARAMETERS, LiFF, LiFF_create
@@ -38,7 +39,6 @@ __all__ = [
     "setWorkingMemoryReuse",
     "getWorkingMemoryReuse",
 ]
-__version__ = "0.1.0"
 
 # Submodules load on first use (``import liff; liff.io.read_light_field(...)`` works
 # without paying for readers, plotting or pycolmap at ``import liff``).

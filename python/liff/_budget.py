@@ -1,7 +1,7 @@
 """The memory budget: how many bytes a light field liff reads, and the detection that
 follows, may take.
 
-One mechanism serves the readers (``liff.io``) and the detector (``liff.cli.common.
+One mechanism serves the readers (``liff.io``) and the detector (``liff._detection.
 make_detector``): when :data:`memory_budget_bytes` is set (``liff.batch`` sets it on a
 Dask worker from the worker's memory limit), the room is that budget less what the
 process holds now (:func:`held_bytes`); otherwise it is the memory available now, as
@@ -18,6 +18,8 @@ from __future__ import annotations
 
 from typing import Optional, Sequence, Tuple
 
+from . import _core
+
 #: Bytes this process may hold while a detector made here runs, its input included
 #: (None: no set budget; the room is the memory available when a call starts).
 #: liff.batch sets it on a Dask worker from the worker's memory limit.
@@ -30,18 +32,14 @@ def held_bytes() -> int:
     next call takes rather than adds to), at least 0."""
     import psutil  # a dependency of distributed: this runs on Dask workers
 
-    from ._core import keptWorkingMemoryBytes
-
-    return max(0, psutil.Process().memory_info().rss - keptWorkingMemoryBytes())
+    return max(0, psutil.Process().memory_info().rss - _core.keptWorkingMemoryBytes())
 
 
 def available_bytes() -> Optional[int]:
     """The memory available now, as LiFF's core counts it for its default limit
     (``liff._core.availableMemoryBytes``: MemAvailable capped by the cgroup's room, plus
     the working memory the core keeps); None where it cannot be read (no bound)."""
-    from ._core import availableMemoryBytes
-
-    available = availableMemoryBytes()
+    available = _core.availableMemoryBytes()
     return int(available) if available > 0 else None
 
 

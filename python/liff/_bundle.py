@@ -24,6 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._rigid import _information
+
 #: Levenberg-Marquardt damping: start, factor on a rejected/accepted step, bounds
 _DAMPING = (1e-3, 10.0, 1e-12, 1e12)
 
@@ -57,8 +59,6 @@ def _inverse3(M: np.ndarray) -> np.ndarray:
     """Inverses of (n, 3, 3) symmetric positive definite matrices (the adjugate over the
     determinant; a point's normal matrix is at least its capture-1 observation's
     information, so it is never near singular)."""
-    from ._rigid import _information
-
     return _information(M)
 
 

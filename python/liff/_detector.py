@@ -106,6 +106,8 @@ def _as_light_field(lf) -> np.ndarray:
         raise ValueError("light field dtype is bool; expected uint8, uint16, float32 or float64")
     lf = as_read_in_place(lf)
     # Warn (never fail) when the values do not fill the range the dtype is read on.
+    # lazy: defers loading liff.io (the package of every reader) to the first detection, so
+    # that `import liff` stays without the readers (liff/__init__.py)
     from .io.intensity import check_intensity
 
     check_intensity(lf, stacklevel=4)

@@ -5,18 +5,19 @@ so the poses do not depend on the number of workers or the order pairs finish in
 
 from __future__ import annotations
 
+from concurrent.futures import ProcessPoolExecutor, as_completed
+
 import numpy as np
 
 from ._processes import stop_now
+from .keypoint_rows import rows_to_keypoints
+from .pose import PoseEstimationError, estimate_relative_pose
 
 
 def _pair_pose(first, second, camera, ratio: float, seed: int):
     """One pair's (R, t, inlier index pairs (k, 2) uint32, covariance), or None where
     :func:`liff.estimate_relative_pose` finds no pose. ``first`` and ``second`` are
     (keypoint rows, descriptors): arrays, which worker processes can receive."""
-    from .keypoint_rows import rows_to_keypoints
-    from .pose import PoseEstimationError, estimate_relative_pose
-
     try:
         R, t, matches, details = estimate_relative_pose(
             rows_to_keypoints(first[0]), first[1], rows_to_keypoints(second[0]), second[1],
@@ -73,10 +74,6 @@ def pair_poses(features, pairs, camera, ratio, seed, workers: int, progress) -> 
             if progress is not None:
                 progress()
         return results
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-
-    from . import pose  # noqa: F401  (imported once here, before the workers start)
-
     pool = ProcessPoolExecutor(max_workers=workers, initializer=_init_pair_worker, initargs=(features,))
     try:
         futures = {pool.submit(_worker_pair_pose, i, j, camera, ratio, seed): k

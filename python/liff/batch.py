@@ -9,7 +9,7 @@ with Dask's own ``dask scheduler`` and ``dask worker ADDRESS``). What survives w
   :class:`Outcome` carries the error, the rest go on;
 - a run killed at any moment: every output is written to a temporary name and renamed
   when complete (:mod:`liff.outputs`), so none is truncated; a re-run redoes only what
-  is missing or was made with other settings (:func:`liff.cli.detect.changes`);
+  is missing or was made with other settings (:func:`liff._tasks.changes`);
 - an unreachable scheduler: :class:`ValueError` within ``timeout`` seconds.
 
 On a worker a task takes the worker's resources: LiFF runs one light field at a time
@@ -23,6 +23,7 @@ memory from one task to the next in the same process (``liff.keptWorkingMemoryBy
 
 from __future__ import annotations
 
+import argparse
 import csv
 import itertools
 import os
@@ -30,12 +31,20 @@ import threading
 import time
 import warnings
 from contextlib import ExitStack, contextmanager
-from dataclasses import asdict, dataclass, fields
-from typing import TYPE_CHECKING, List, NamedTuple, Optional, Sequence
+from dataclasses import asdict, fields
+from typing import TYPE_CHECKING, List, Optional, Sequence
 
 from . import _budget
+from ._core import getNumThreads, setNumThreads
+from ._detection import SLOPE_BOUNDS, make_detector, with_defaults
+from ._detector import PARAMETERS
+from ._flags import name_flags
+from ._inputs import protected_inputs
 from ._paths import special_kind
-from .outputs import atomic_output
+from ._processes import run_batch
+from ._tasks import Detected, Outcome, Task, detect_one, plan, read_as  # noqa: F401 (liff.batch.*)
+from ._warnings import LiffWarning
+from .outputs import atomic_output, make_folder, refuse_inputs
 
 if TYPE_CHECKING:  # (an optional dependency: pip install "liff[dask]")
     import distributed
@@ -49,66 +58,12 @@ CONNECT_TIMEOUT = 10
 MANIFEST_SECONDS = 1.0
 
 
-class Task(NamedTuple):
-    """One light field to detect: the arguments of :func:`liff.cli.detect.detect_one`."""
-
-    source: str
-    output: str
-    plot: Optional[str]
-    reader_options: dict
-    preprocess: bool
-    parameters: dict
-    mask: Optional[str] = None  # liff detect --mask: an image, or "auto"
-
-
-@dataclass
-class Outcome:
-    """One row of a run's manifest (:func:`write_manifest`).
-
-    ``status`` is "done", "failed" or "kept" (an output made with the same settings
-    was there); ``first_slope``/``last_slope`` the slopes of the first and last slice
-    searched, ``searched``/``built`` the focal slices searched and built, and
-    ``slopes_from`` where the range came from ("automatic", "given", a reader's
-    "parameters.cfg", or, where the ends differ, two joined by " + ": "given +
-    automatic"); ``seconds`` the task's time on its worker (reading, detecting,
-    writing) and ``cpu_seconds`` the processor time it took (all of LiFF's threads);
-    ``notes`` the warnings about the input, one per line."""
-
-    input: str
-    output: str
-    status: str
-    features: Optional[int] = None
-    first_slope: Optional[float] = None
-    last_slope: Optional[float] = None
-    searched: Optional[int] = None
-    built: Optional[int] = None
-    slopes_from: str = ""
-    seconds: Optional[float] = None
-    cpu_seconds: Optional[float] = None
-    error: str = ""
-    worker: str = ""
-    notes: str = ""
-    format: str = ""
-    reader_options: str = ""
-
-
-def read_as(options: dict) -> dict:
-    """The manifest's ``format`` and ``reader_options`` (as the command line writes
-    them: ``--lenslet 14``) of an input read with ``options``."""
-    from .cli.common import shown_options
-
-    return {"format": options.get("format") or "", "reader_options": shown_options(options)}
-
-
 _ONE_AT_A_TIME = threading.Lock()  # per worker process: LiFF already uses every thread
 
 
 def run_task(task: Task) -> Outcome:
     """Runs one task where it is (a Dask worker, a local process, here) and returns its
     outcome; an error reading, detecting or writing is in ``Outcome.error``, not raised."""
-    from .cli.common import name_flags
-    from .cli.detect import detect_one
-
     with _ONE_AT_A_TIME, _worker_resources() as worker:
         start, cpu = time.perf_counter(), time.process_time()
         try:
@@ -150,8 +105,6 @@ def _worker_resources():
     except (ImportError, ValueError):  # not on a Dask worker
         yield ""
         return
-    from . import getNumThreads, setNumThreads
-
     threads, budget = getNumThreads(), _budget.memory_budget_bytes
     setNumThreads(worker.state.nthreads)
     limit = worker.memory_manager.memory_limit
@@ -273,7 +226,7 @@ def run(tasks: Sequence[Task], client, progress=None, notice=None,
 def _profiler_paused(client):
     """The workers' profiler paused (a worker plugin, so workers that join get it too)
     until the block ends."""
-    from ._dask_workers import PausedProfiler
+    from ._dask_workers import PausedProfiler  # lazy: defers distributed (optional: liff[dask])
 
     # (register_plugin since distributed 2023.9.2; register_worker_plugin before it)
     register = getattr(client, "register_plugin", None) or client.register_worker_plugin
@@ -296,8 +249,6 @@ def _run_on(client, tasks: Sequence[Task], progress, notice) -> List[Outcome]:
         if notice:
             notice(text)
         else:
-            from ._warnings import LiffWarning
-
             warnings.warn(text, LiffWarning, stacklevel=3)  # (the caller of run)
     return _gather(client, tasks, progress)
 
@@ -396,8 +347,6 @@ def new_manifest_name(folder: str, now: Optional[float] = None) -> str:
     ValueError
         Naming the folder, if the file cannot be created there.
     """
-    from .outputs import make_folder
-
     make_folder(folder)
     stamp = time.strftime("manifest-%Y%m%d-%H%M%S", time.gmtime(now))
     for number in itertools.count(1):
@@ -425,6 +374,33 @@ def is_manifest(path: str) -> bool:
         return False
 
 
+@contextmanager
+def manifest_writer(manifest: Optional[str], kept: List[Outcome]):
+    """A :class:`ManifestWriter` for ``manifest`` starting with the ``kept``
+    outcomes, or None without a manifest."""
+    if not manifest:
+        yield None
+        return
+    with ManifestWriter(manifest, kept) as writer:
+        yield writer
+
+
+def check_manifest(manifest: str, args: argparse.Namespace, tasks: List[Task],
+                   kept: List[Outcome]) -> None:
+    """Raises ValueError, before anything runs, if the manifest would write over an
+    input, over another output of the run, or over an existing file that is not a liff
+    manifest (unless ``--overwrite``)."""
+    refuse_inputs([manifest], protected_inputs(args), "--manifest")  # (and a FIFO)
+    outputs = [t.output for t in tasks] + [t.plot for t in tasks if t.plot] + [k.output for k in kept]
+    if any(os.path.exists(o) and os.path.exists(manifest) and os.path.samefile(o, manifest) or
+           os.path.abspath(o) == os.path.abspath(manifest) for o in outputs):
+        raise ValueError(f"{manifest}: is also an output of this run; expected a --manifest "
+                         "path of its own; nothing was written")
+    if os.path.exists(manifest) and not args.overwrite and not is_manifest(manifest):
+        raise ValueError(f"{manifest}: exists and is not a liff manifest; expected a new "
+                         "--manifest path (or --overwrite to replace it); nothing was written")
+
+
 def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
            reader_options: Optional[dict] = None, preprocess: bool = False,
            overwrite: bool = False, manifest: Optional[str] = None, **parameters) -> List[Outcome]:
@@ -434,7 +410,7 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
     ----------
     paths : str or sequence of str
         Light fields, folders of light fields, glob patterns (see
-        :func:`liff.cli.common.expand_inputs`); nothing is written inside a folder
+        :func:`liff._inputs.expand_inputs`); nothing is written inside a folder
         given.
     out : str
         Output folder (created if missing).
@@ -465,12 +441,6 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
         Before anything runs: bad parameters or ``workers``, outputs over inputs or
         inside a folder given, a manifest over an input, an output or a foreign file.
     """
-    import argparse
-
-    from . import PARAMETERS
-    from .cli import common
-    from .cli.detect import check_manifest, manifest_writer, plan
-
     if isinstance(paths, (str, os.PathLike)):  # one path, not its letters
         paths = [paths]
     if not (isinstance(workers, int) and workers >= 1):
@@ -478,12 +448,12 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
     args = argparse.Namespace(paths=list(paths), out=os.path.join(out, ""), plot=None,
                               overwrite=overwrite, preprocess=preprocess, from_list=None)
     # slope bounds not given: a reader's range if it knows one, else automatic
-    wanted = {p.name: parameters.pop(p.name, None if p.name in common.SLOPE_BOUNDS else p.default)
+    wanted = {p.name: parameters.pop(p.name, None if p.name in SLOPE_BOUNDS else p.default)
               for p in PARAMETERS}
     if parameters:
         raise TypeError(f"unknown parameter(s) {sorted(parameters)}; expected liff.LiFF.create "
                         "keywords")
-    common.make_detector(common.with_defaults(wanted))  # bad parameters: refused up front
+    make_detector(with_defaults(wanted))  # bad parameters: refused up front
     tasks, kept, _ = plan(args, dict(reader_options or {}), wanted)
     if manifest:
         check_manifest(manifest, args, tasks, kept)
@@ -492,7 +462,7 @@ def detect(paths: Sequence[str], out: str, client=None, workers: int = 1,
         if client is not None:
             outcomes = run(tasks, client, progress=done)
         else:
-            outcomes = common.run_batch(run_task, [(t,) for t in tasks], workers, "detect", str,
+            outcomes = run_batch(run_task, [(t,) for t in tasks], workers, "detect", str,
                                         done=done)[0]
         outcomes += kept
         if writer:

@@ -14,6 +14,8 @@ from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
+from .keypoint_rows import keypoint_slopes
+
 
 @dataclass(frozen=True)
 class Blob:
@@ -345,8 +347,6 @@ def match_blobs(keypoints, blobs: Sequence[Blob], found_within, spurious_beyond)
     -------
     BlobMatch
     """
-    from .keypoint_rows import keypoint_slopes
-
     centres = np.array([(b.x, b.y) for b in blobs], dtype=np.float64).reshape(-1, 2)
     within = np.broadcast_to(np.asarray(found_within, dtype=np.float64), (len(blobs),))
     beyond = np.broadcast_to(np.asarray(spurious_beyond, dtype=np.float64), (len(blobs),))

@@ -16,9 +16,11 @@ import threading
 import warnings
 from typing import List, Optional
 
-from .. import __version__, opencvVersion
+from .. import _progress as progress  # (liff.cli.progress: --quiet sets progress.QUIET)
+from .._core import opencvVersion
+from .._version import __version__
 from .._warnings import LiffWarning
-from . import colmap, common, demo, detect, match, pose, progress, synth
+from . import colmap, common, demo, detect, match, pose, synth
 
 COMMANDS = (detect, match, pose, colmap, synth, demo)
 

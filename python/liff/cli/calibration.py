@@ -14,6 +14,7 @@ import numpy as np
 
 from .._paths import refuse_special
 from ..camera import LightFieldCamera, read_hci_parameters
+from ..io.mat import LF_VARIABLE, variable_shapes
 
 
 def add_camera_options(parser: argparse.ArgumentParser) -> None:
@@ -235,8 +236,6 @@ def _light_field_shape(path: str) -> Optional[tuple]:
     """MATLAB's (t, s, v, u[, c]) of the light field a .mat camera file holds beside H
     (its variable ``LF``, else its only 4-D or 5-D array), from the headers; None if
     it holds none."""
-    from ..io.mat import LF_VARIABLE, variable_shapes
-
     arrays = [(name, shape) for name, shape, kind in variable_shapes(path) or ()
               if len(shape) in (4, 5) and not isinstance(kind, tuple)]
     named = [shape for name, shape in arrays if name == LF_VARIABLE]

@@ -12,12 +12,12 @@ from typing import Optional
 
 import numpy as np
 
-from ..keypoint_rows import keypoints_to_rows, rows_to_keypoints
+from ..keypoint_rows import keypoint_slopes, keypoints_to_rows, rows_to_keypoints
 from ..feature_file import centre_view, load_features
 from ..outputs import refuse_inputs
 from . import common
 from .calibration import add_camera_options, calibration_from_args
-from .match import is_feature_file
+from .match import MIN_INLIERS, is_feature_file
 
 METRICS = (("registered images", "registered", "{:.0%}"),
            ("keypoints / image", "keypoints_per_image", "{:.0f}"),
@@ -80,7 +80,7 @@ def features_for_colmap(path: str, options: dict, preprocess: bool, parameters: 
 def _features_and_shape(path: str, options: dict, preprocess: bool, parameters: dict):
     """:func:`features_for_colmap` and the light field's shape (T, S, V, U[, C]), or
     None for a feature file that does not record it."""
-    from .. import colmap
+    from .. import colmap  # lazy: defers pycolmap (optional: liff[sfm]) and SciPy
 
     if is_feature_file(path):
         features = load_features(path)
@@ -110,7 +110,7 @@ def write(args: argparse.Namespace, database: str, image_dir: str, focal=None,
     ``images_out`` if given. ``calibration`` (:class:`.calibration.Calibration`): inputs
     of another view size (or grid) than it states are refused before anything is
     written."""
-    from .. import colmap
+    from .. import colmap  # lazy: defers pycolmap (optional: liff[sfm]) and SciPy
 
     names = [common.output_name(path, ".png") for path in args.paths]
     refuse_inputs([database] + [os.path.join(image_dir, n) for n in names],
@@ -162,8 +162,7 @@ def scale_to_metres(result, images, camera, sparse: str, pair_poses=None, metric
     baselines where there are some, else by the features' slopes), rewrites it in place
     and prints the factor and how the two estimates agree. A ``metric_model`` (from the
     pair poses) is in metres already: only the checks are printed."""
-    from .. import colmap
-    from ..keypoint_rows import keypoint_slopes
+    from .. import colmap  # lazy: defers pycolmap (optional: liff[sfm]) and SciPy
 
     slopes = {im.name: keypoint_slopes(im.keypoints) for im in images}
     for index, model in sorted(result.reconstructions.items()):
@@ -206,8 +205,6 @@ def no_points_reason(pair_poses: Optional[dict]) -> str:
     """Why a model has no 3-D points: pairs of fewer inliers than COLMAP triangulates
     from (:data:`liff.cli.match.MIN_INLIERS`, its two-view ``min_num_inliers``), named
     with their counts, else poses without a baseline between them."""
-    from .match import MIN_INLIERS
-
     few = {pair: pose.inliers for pair, pose in (pair_poses or {}).items()
            if pose is not None and pose.inliers < MIN_INLIERS}
     if few:
@@ -237,7 +234,9 @@ def run_colmap(args: argparse.Namespace) -> int:
 
 
 def run_sfm(args: argparse.Namespace) -> int:
-    from .. import colmap  # first: without pycolmap it says how to install it
+    # lazy: defers pycolmap (optional: liff[sfm]) and SciPy; first: without pycolmap it
+    # says how to install it
+    from .. import colmap
 
     common.expand_args(args, common.reader_options(args), features=True)
     if len(args.paths) < 2:

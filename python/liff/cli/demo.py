@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..demo import run_demo
 from . import common
 
 
@@ -21,6 +22,4 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..demo import run_demo
-
     return run_demo(args.out, noise_variance=args.noise)

@@ -3,24 +3,20 @@
 from __future__ import annotations
 
 import argparse
-import glob
 import os
 import sys
-import warnings
-from contextlib import contextmanager
-from typing import Callable, List, NamedTuple, Optional, Tuple
+from typing import Callable, List, Optional
 
-import cv2
-
-from .. import __version__, batch
-from .._detector import as_read_in_place
-from .._warnings import LiffWarning
-from ..feature_file import (Features, centre_view, content_problem, keypoints_in_centre_view,
-                            read_meta, save_features)
-from ..io.images import write_image
-from ..outputs import atomic_output, refuse_inputs
-from ..plot import draw_keypoints_by_slope
+from .. import batch
+from .._inputs import describe
+from .._tasks import is_batch, plan
+from ..batch import check_manifest, manifest_writer
+from ..outputs import refuse_inputs
 from . import common, mask
+
+# Named here as before they moved to the batch runs' layer (liff._tasks, liff.batch).
+from .._tasks import (Detected, changes, destination, detect_one,  # noqa: F401
+                      refuse_foreign_plot, settings)
 
 
 def add_parser(sub) -> None:
@@ -78,177 +74,6 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run, parser=p)
 
 
-def destination(given, path: str, suffix: str, many: bool, force_suffix: bool = True) -> str:
-    """Where the output for ``path`` goes: ``given`` itself for one input (unless it is
-    a folder, or ends with a path separator), else ``given``/<name><suffix>.
-
-    ``force_suffix``: a single ``given`` without ``suffix`` gets it appended (numpy's
-    savez does that anyway; say, and check, the real file name); False keeps ``given``
-    as it is (an image, whose ending chooses the format)."""
-    if given is None:
-        return common.output_name(path, suffix)
-    if many or os.path.isdir(given) or given.endswith(tuple(filter(None, (os.sep, os.altsep)))):
-        return os.path.join(given, common.output_name(path, suffix))
-    return given if given.endswith(suffix) or not force_suffix else given + suffix
-
-
-def settings(path: str, options: dict, preprocess: bool, parameters: dict,
-             mask_spec: Optional[str] = None) -> dict:
-    """How a feature file is made, as recorded in its ``meta``: an existing output is
-    kept only if these are equal (JSON's view of them: tuples are lists)."""
-    return dict(source=os.path.abspath(path), reader_options=options, preprocess=preprocess,
-                parameters=parameters, mask=mask_spec, liff_version=__version__)
-
-
-class Detected(NamedTuple):
-    """What :func:`detect_one` found: the feature count, the slope range searched (the
-    first and last searched slice's slope), the slices searched and built, where the
-    range came from ("automatic", "given", or the reader's: "parameters.cfg"), and the
-    warnings about the input (one line each)."""
-
-    features: int
-    slope_range: Tuple[float, float]
-    searched: int = 0
-    built: int = 0
-    slopes_from: str = "automatic"
-    notes: Tuple[str, ...] = ()
-
-
-def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
-               parameters: dict, mask_spec: Optional[str] = None) -> Detected:
-    """Reads, detects and writes one light field; returns what it found."""
-    identity = common.input_identity(path)  # before reading: a change meanwhile is redone
-    # the warnings about the input, reading (missing views, lenslet size) and detecting,
-    # are its notes: the manifest's, and one line each on stderr
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", LiffWarning)
-        light_field, metadata = common.read_input(path, options, preprocess)
-        # A copy detection would make (Fortran order) is made now, so that it counts.
-        light_field = as_read_in_place(light_field)
-        resolved, slopes_from = common.slope_range(parameters, metadata)
-        detector = common.make_detector(resolved)
-        keypoints, descriptors = detector.detectAndCompute(
-            light_field, mask.load_mask(mask_spec, light_field, path))
-    notes = [str(w.message) for w in caught if issubclass(w.category, LiffWarning)]
-    searched, built = detector.getSearchedSlopes(), detector.getSlicesUsed()
-    slope_range = (searched[0], searched[-1]) if searched else (float("nan"), float("nan"))
-    meta = dict(settings(path, options, preprocess, parameters, mask_spec),
-                input_identity=identity, shape=list(light_field.shape),
-                slopes_searched=searched, slopes_from=slopes_from,
-                plot=os.path.abspath(plot) if plot else None)
-    view = centre_view(light_field)
-    with atomic_output(out) as partial:
-        save_features(partial, Features(tuple(keypoints), descriptors, view, meta))
-    if plot:
-        with atomic_output(plot) as partial:
-            picture = draw_keypoints_by_slope(view, keypoints_in_centre_view(
-                keypoints, light_field.shape), (built[0], built[-1]))
-            write_image(partial, picture)
-    return Detected(len(keypoints), slope_range, len(searched), len(built), slopes_from, notes)
-
-
-def changes(out: str, plot: Optional[str], wanted: dict) -> Optional[List[str]]:
-    """What makes the existing ``out`` (and ``plot``) stale: None if they can be kept,
-    [] if missing, else the differences ("nfeatures 0 -> 10", "the input is newer").
-
-    Raises
-    ------
-    ValueError
-        If ``out`` exists and is not a liff feature file: it is not ours to replace.
-    """
-    if not os.path.exists(out):
-        return []
-    made = read_meta(out)
-    if made is None:
-        raise ValueError(f"{out}: exists and is not a liff feature file; expected a new output "
-                         "path (or --overwrite to replace it)")
-    old = {key: made.get(key) for key in wanted}
-    old.update({f"parameters.{k}": v for k, v in (made.get("parameters") or {}).items()})
-    new = common.json_like(wanted)
-    new.update({f"parameters.{k}": v for k, v in new["parameters"].items()})
-    if "reader_options" in old:  # as the command line writes them: --lenslet 14
-        old["reader_options"] = common.shown_options(old["reader_options"] or {}) or None
-        new["reader_options"] = common.shown_options(new["reader_options"]) or None
-
-    def shown(value):
-        return "not given" if value is None else value
-
-    differ = [f"{key.replace('parameters.', '').replace('_', ' ')} {shown(old.get(key))} -> "
-              f"{shown(value)}"
-              for key, value in new.items() if key != "parameters" and old.get(key) != value]
-    if "input_identity" in made:  # size and time, compared for equality
-        changed = made["input_identity"] != common.input_identity(wanted["source"])
-    else:  # (a feature file made before liff recorded it)
-        changed = common.modified_after(wanted["source"], out)
-    if not differ and changed:
-        differ = ["the input changed after the output was made"]
-    if not differ:  # the settings match: keep it only if its content is what was written
-        problem = content_problem(out)
-        differ = [problem] if problem else []
-    if not differ and plot and not os.path.exists(plot):
-        return []
-    return differ or None
-
-
-def refuse_foreign_plot(plot: str, out: str) -> None:
-    """Raises ValueError if ``plot`` exists and is not the picture ``out``'s run drew
-    (as recorded in its feature file): it is not ours to replace."""
-    if not os.path.exists(plot):
-        return
-    made = read_meta(out) if os.path.exists(out) else None
-    if made is None or made.get("plot") != os.path.abspath(plot):
-        raise ValueError(f"{plot}: exists and is not the plot of {out}; expected a new --plot "
-                         "path (or --overwrite to replace it); nothing was written")
-
-
-def plan(args: argparse.Namespace, options: dict, parameters: dict) -> tuple:
-    """(tasks to run, outcomes of outputs kept, {output: reasons} of those redone) for
-    ``args.paths`` (and ``--from-list``), ``--out``, ``--plot`` and ``--overwrite``.
-
-    Raises
-    ------
-    ValueError
-        Before anything is written: outputs over inputs, colliding outputs, a file name
-        for several inputs, a plot OpenCV cannot write, a foreign file in the way.
-    """
-    common.expand_args(args, options, args.from_list)
-    if not args.paths:
-        raise ValueError("no input; expected light fields as PATH arguments or --from-list")
-    many = is_batch(args)
-    count = max(len(args.paths), 2 if many else 1)  # (a batch writes into folders)
-    common.check_output_folder(args.out, ".npz", count, "--out")
-    if args.plot:
-        common.check_output_folder(args.plot, ".png", count, "--plot")
-    tasks, kept, redo, seen = [], [], {}, {}
-    for item in args.inputs:
-        path, options = item.path, item.options
-        out = destination(args.out, path, ".npz", many)
-        plot = destination(args.plot, path, ".png", many, force_suffix=False) if args.plot else None
-        if plot and not cv2.haveImageWriter(plot):
-            raise ValueError(f"{plot}: OpenCV cannot write this kind of image; expected --plot "
-                             "with an image ending such as .png or .jpg, or a folder")
-        if out in seen:
-            raise ValueError(f"{path} and {seen[out]} would both write {out}; expected inputs "
-                             "with distinct names (or one --out per run)")
-        seen[out] = path
-        refuse_inputs([out], common.protected_inputs(args), "--out")
-        if plot:
-            refuse_inputs([plot], common.protected_inputs(args), "--plot")
-            if not args.overwrite:
-                refuse_foreign_plot(plot, out)
-        mask_spec = getattr(args, "mask", None)  # (liff.batch.detect has no --mask)
-        task = batch.Task(path, out, plot, options, args.preprocess, parameters, mask_spec)
-        stale = [] if args.overwrite else changes(out, plot, settings(
-            path, options, args.preprocess, parameters, mask_spec))
-        if stale is None:
-            kept.append(batch.Outcome(path, out, "kept", **batch.read_as(options)))
-            continue
-        if stale:
-            redo[out] = stale
-        tasks.append(task)
-    return tasks, kept, redo
-
-
 def run_tasks(tasks: List[batch.Task], args: argparse.Namespace,
               done: Optional[Callable[[batch.Outcome], None]] = None) -> List[batch.Outcome]:
     """Runs the tasks on the Dask cluster of ``--scheduler`` or on ``--workers`` local
@@ -292,47 +117,6 @@ def wants_run_manifest(args: argparse.Namespace) -> bool:
     return not args.manifest and bool(batch_run and folder)
 
 
-def is_batch(args: argparse.Namespace) -> bool:
-    """Whether the inputs are a batch, written into folders with a manifest: several,
-    or given as a list file, a pattern or a folder of light fields (even if it held one:
-    its failure, too, has a manifest row), not as a light field itself."""
-    def expanded(given: str) -> bool:
-        if not os.path.exists(given):
-            return glob.has_magic(given)  # a pattern (else a missing path, which fails)
-        inside = os.path.join(os.path.abspath(given), "")
-        return os.path.isdir(given) and any(os.path.abspath(p).startswith(inside)
-                                            for p in args.paths)
-
-    return len(args.paths) > 1 or bool(args.from_list) or any(map(expanded, args.given_paths))
-
-
-@contextmanager
-def manifest_writer(manifest: Optional[str], kept: List[batch.Outcome]):
-    """A :class:`batch.ManifestWriter` for ``manifest`` starting with the ``kept``
-    outcomes, or None without a manifest."""
-    if not manifest:
-        yield None
-        return
-    with batch.ManifestWriter(manifest, kept) as writer:
-        yield writer
-
-
-def check_manifest(manifest: str, args: argparse.Namespace, tasks: List[batch.Task],
-                   kept: List[batch.Outcome]) -> None:
-    """Raises ValueError, before anything runs, if the manifest would write over an
-    input, over another output of the run, or over an existing file that is not a liff
-    manifest (unless ``--overwrite``)."""
-    refuse_inputs([manifest], common.protected_inputs(args), "--manifest")  # (and a FIFO)
-    outputs = [t.output for t in tasks] + [t.plot for t in tasks if t.plot] + [k.output for k in kept]
-    if any(os.path.exists(o) and os.path.exists(manifest) and os.path.samefile(o, manifest) or
-           os.path.abspath(o) == os.path.abspath(manifest) for o in outputs):
-        raise ValueError(f"{manifest}: is also an output of this run; expected a --manifest "
-                         "path of its own; nothing was written")
-    if os.path.exists(manifest) and not args.overwrite and not batch.is_manifest(manifest):
-        raise ValueError(f"{manifest}: exists and is not a liff manifest; expected a new "
-                         "--manifest path (or --overwrite to replace it); nothing was written")
-
-
 def checked_plan(args: argparse.Namespace) -> tuple:
     """:func:`plan`, and every other check the run makes before it writes anything (the
     hloc files, ``--hloc-images``, the manifest): the run and ``--dry-run`` both call it,
@@ -353,6 +137,7 @@ def checked_plan(args: argparse.Namespace) -> tuple:
     if args.hloc_images:
         refuse_inputs([args.hloc_images], common.protected_inputs(args), "--hloc-images")
     if args.hloc:  # before any output is written
+        # lazy: defers pycolmap (optional: liff[sfm]) and SciPy (liff.hloc imports liff.colmap)
         from ..hloc import check_export
 
         check_export(args.hloc, [task.output for task in tasks] + [o.output for o in kept],
@@ -365,8 +150,6 @@ def checked_plan(args: argparse.Namespace) -> tuple:
 def dry_run(args: argparse.Namespace) -> int:
     """``--dry-run``: what would be read as what, and what the folders hold besides,
     after the run's own checks (:func:`checked_plan`)."""
-    from .inputs import describe
-
     tasks, kept, _ = checked_plan(args)
     for item in args.inputs:
         print(describe(item))
@@ -418,6 +201,7 @@ def run(args: argparse.Namespace) -> int:
     if manifest:
         print(f"manifest: {manifest}")
     if args.hloc:
+        # lazy: defers pycolmap (optional: liff[sfm]) and SciPy (liff.hloc imports liff.colmap)
         from ..hloc import add_feature_files
 
         written = [o.output for o in outcomes + kept if o.status != "failed"]

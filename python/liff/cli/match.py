@@ -9,7 +9,7 @@ import sys
 import numpy as np
 
 from .._paths import special_kind
-from ..feature_file import Features, features_from_light_field, load_features
+from ..feature_file import Features, content_digest, features_from_light_field, load_features
 from ..io.images import write_image
 from ..matching import chance_inliers, draw_inliers, ratio_matches, verify
 from ..plot import to_display
@@ -98,6 +98,7 @@ def check_hloc_options(args: argparse.Namespace) -> None:
                          "the features file its matches index)")
     if not args.hloc:
         return
+    # lazy: defers pycolmap (optional: liff[sfm]) and SciPy (liff.hloc imports liff.colmap)
     from ..hloc import features_in, check_pair_names, image_name
 
     common.check_hloc_output(args.hloc, [args.a, args.b], "--hloc", "matches")
@@ -133,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
               f"scene (expected at least {MIN_INLIERS}, and {CHANCE_FACTOR}x the {chance} that "
               "RANSAC keeps among randomly re-paired matches)", file=sys.stderr)
     if args.hloc:
-        from ..feature_file import content_digest
+        # lazy: defers pycolmap (optional: liff[sfm]) and SciPy (liff.hloc imports liff.colmap)
         from ..hloc import feature_file_group, image_name, updated, write_matches
 
         digests = tuple(content_digest(feature_file_group(f)[0]) for f in (fa, fb))

@@ -11,8 +11,12 @@ from typing import Optional
 
 import numpy as np
 
+from .. import io
+from ..camera import HCI_CAMERA_KEYS
 from ..feature_file import Features, features_from_light_field, load_features
 from ..outputs import atomic_output, refuse_inputs
+from ..pose import estimate_relative_pose
+from ..preprocess import prepare
 from . import common
 from .calibration import (Calibration, add_camera_options, calibration_from_args,
                           check_feature_file)
@@ -56,8 +60,6 @@ def features_and_camera(path: str, options: dict, args: argparse.Namespace,
     if calibration is not None:
         calibration.check(path, light_field.shape)
     if args.preprocess:
-        from ..preprocess import prepare
-
         light_field = prepare(light_field)
     detector = common.make_detector(common.detector_parameters(args))
     return features_from_light_field(detector, light_field), metadata.get("camera")
@@ -66,9 +68,6 @@ def features_and_camera(path: str, options: dict, args: argparse.Namespace,
 def carries_camera(path: str, args: argparse.Namespace) -> bool:
     """Whether the input ``path`` carries its camera's calibration (an HCI scene whose
     parameters.cfg holds the camera's entries), told without reading its light field."""
-    from .. import io
-    from ..camera import HCI_CAMERA_KEYS
-
     if is_feature_file(path) or (args.format or io.guess_format(path)) != "hci":
         return False
     cfg = os.path.join(path, "parameters.cfg")
@@ -84,8 +83,6 @@ def carries_camera(path: str, args: argparse.Namespace) -> bool:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..pose import estimate_relative_pose
-
     if args.out:  # before anything is read or detected
         # The calibration files are inputs too: --out must not replace the camera it reads.
         calibration = [path for path in (getattr(args, "camera_file", None),

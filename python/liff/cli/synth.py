@@ -9,7 +9,7 @@ from dataclasses import asdict
 
 import numpy as np
 
-from .. import synthetic
+from .. import captures, io, synthetic
 from ..outputs import atomic_output
 from . import common
 
@@ -75,8 +75,6 @@ def light_field_path(out: str, fmt: str) -> str:
 def write_light_field(path: str, lf: np.ndarray, fmt: str, arrays: dict) -> None:
     """Writes ``lf`` at ``path`` atomically: npz (float32, with ``arrays`` beside it) or
     16-bit PNG views, ESLF or mosaic."""
-    from .. import io
-
     with atomic_output(path, folder=fmt == "views") as partial:
         if fmt == "npz":
             np.savez_compressed(partial, light_field=lf, **arrays)
@@ -101,8 +99,6 @@ def write_truth(base: str, truth: dict) -> str:
 
 def write_poses(args: argparse.Namespace) -> None:
     """``args.poses`` light fields of one box scene, ``out/poseNN``, and their truth."""
-    from .. import captures
-
     T, S, V, U = shape_of(args)
     scene = captures.box_scene(args.seed)
     poses = captures.arc_poses(args.poses, seed=args.seed)

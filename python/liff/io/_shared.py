@@ -18,6 +18,7 @@ import numpy as np
 from .images import (IMAGE_SUFFIXES, LIGHT_FIELD_DTYPES, SIXTEEN_BIT_SUFFIXES,  # noqa: F401
                      PathLike, as_image, read_image, write_image)
 from .._paths import refuse_special
+from .._warnings import MissingViewsWarning
 
 
 @dataclass
@@ -294,8 +295,6 @@ def check_incomplete(source: str, grid: Tuple[int, int], present: int, missing: 
     """
     import itertools
     import warnings
-
-    from .._warnings import MissingViewsWarning
 
     T, S = grid
     count = T * S - present

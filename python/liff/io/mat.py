@@ -28,6 +28,7 @@ from typing import Optional, cast
 import numpy as np
 
 from .._budget import check_fits, over_budget, room_bytes
+from . import _matv5
 from .hdf5 import check_dataset_fits, named_dataset_shapes
 from ._shared import (LightFieldFile, PathLike, check_disparity, required_module, pick_key,
                       rgb_light_field, stored_file)
@@ -101,8 +102,6 @@ def variable_shapes(path: PathLike) -> Optional[list]:
     when the headers cannot be read (the reader then says what is wrong). ``kind`` is
     "numeric", another MATLAB class name, or for a v5 struct ``("struct", field names)``.
     """
-    from . import _matv5
-
     path = os.fspath(path)
     try:
         import scipy.io
@@ -153,8 +152,6 @@ def _read_v5(path: str, key: Optional[str], scipy_io):
 
     v5 files go through :mod:`._matv5` first (SciPy's v5 reader crashes on some damaged
     files); v4 files, plain arrays, straight to SciPy."""
-    from . import _matv5
-
     check_fits(path, os.path.getsize(path), "the file, read whole")
     with open(path, "rb") as f:
         data = f.read()

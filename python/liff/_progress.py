@@ -1,6 +1,7 @@
 """What a command says on stderr while the user waits: a tqdm bar on a terminal, plain
 lines in a log (stderr not a terminal: nohup, CI, a job scheduler), nothing with
-``--quiet``.
+``--quiet``. (Below the batch runs, whose local pool shows it too; the command line
+reaches it as ``liff.cli.progress`` and sets :data:`QUIET`.)
 
 In a log, a batch prints a line per finished input (other units, such as pairs or poses,
 at most one every :data:`LINE_SECONDS`, and the last), and anything that runs long
@@ -116,7 +117,7 @@ def progress(iterable: Optional[Iterable] = None, desc: str = "liff",
              total: Optional[int] = None, unit: str = "file"):
     """Progress on stderr: a tqdm bar on a terminal (or with ``LIFF_PROGRESS`` set),
     :class:`LineProgress` lines in a log, a silent bar with ``--quiet``."""
-    from tqdm import tqdm
+    from tqdm import tqdm  # lazy: tqdm only once a bar is shown
 
     if QUIET or _bar_wanted():
         return tqdm(iterable, desc=desc, total=total, unit=unit, file=sys.stderr,

@@ -133,7 +133,8 @@ def expand(paths: Sequence[str], options: dict, from_list: Optional[str] = None,
                 raise ValueError(f"{path}: no file matches the pattern; expected light fields")
         else:
             matches = [path]
-        found, folders = 0, {}
+        found = 0
+        folders: dict = {}  # expand_match's record of the folders seen
         for match in matches:
             taken, skipped = (expand_match(match, fmt, pattern, features, folders) if globbed
                               else expand_path(match, fmt, pattern, features))
@@ -177,7 +178,7 @@ def resolve_options(inputs: List[Input], options: dict, from_list: Optional[str]
     unused = [k for k in given if k not in used]
     if unused and inputs:
         formats = sorted({item.format for item in inputs if item.format})
-        takes = [k for k in OPTIONS if all(k in FORMATS[f].takes() for f in formats)]
+        takes = tuple(k for k in OPTIONS if all(k in FORMATS[f].takes() for f in formats))
         raise ValueError(
             f"option(s) {', '.join(OPTIONS[k].flag for k in unused)} do not apply to format "
             f"{', '.join(repr(f) for f in formats)} of any input ("

@@ -12,7 +12,7 @@ import signal
 import sys
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from functools import partial
-from typing import Callable, List, Optional, Sequence, Tuple
+from typing import Any, Callable, List, Optional, Sequence, Tuple
 
 from ._core import setNumThreads
 from ._flags import error_line
@@ -31,8 +31,8 @@ def stop_now(pool: ProcessPoolExecutor) -> None:
 
 def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: str,
               label: Callable[[tuple], str],
-              done: Optional[Callable[[object], None]] = None,
-              failed: Callable[[object], bool] = lambda result: False) -> Tuple[List, int]:
+              done: Optional[Callable[[Any], None]] = None,
+              failed: Callable[[Any], bool] = lambda result: False) -> Tuple[List, int]:
     """Runs ``function(*job)`` for every job, on ``workers`` processes (1 = here), with a
     progress bar on stderr (see :func:`progress`). A job that raises is reported as
     ``liff <command>: <label>: <error>`` and the rest go on; ``done(result)`` is called

@@ -14,7 +14,7 @@ import json
 import os
 import warnings
 from dataclasses import dataclass
-from typing import List, NamedTuple, Optional, Tuple
+from typing import Dict, List, NamedTuple, Optional, Tuple
 
 import cv2
 
@@ -163,7 +163,7 @@ def detect_one(path: str, out: str, plot, options: dict, preprocess: bool,
         detector = make_detector(resolved)
         keypoints, descriptors = detector.detectAndCompute(
             light_field, load_mask(mask_spec, light_field, path))
-    notes = [str(w.message) for w in caught if issubclass(w.category, LiffWarning)]
+    notes = tuple(str(w.message) for w in caught if issubclass(w.category, LiffWarning))
     searched, built = detector.getSearchedSlopes(), detector.getSlicesUsed()
     searched_range = (searched[0], searched[-1]) if searched else (float("nan"), float("nan"))
     meta = dict(settings(path, options, preprocess, parameters, mask_spec),
@@ -253,7 +253,10 @@ def plan(args: argparse.Namespace, options: dict, parameters: dict) -> tuple:
     check_output_folder(args.out, ".npz", count, "--out")
     if args.plot:
         check_output_folder(args.plot, ".png", count, "--plot")
-    tasks, kept, redo, seen = [], [], {}, {}
+    tasks: List[Task] = []
+    kept: List[Outcome] = []
+    redo: Dict[str, List[str]] = {}
+    seen: Dict[str, str] = {}
     for item in args.inputs:
         path, options = item.path, item.options
         out = destination(args.out, path, ".npz", many)

@@ -278,7 +278,7 @@ def _gather(client, tasks: Sequence[Task], progress) -> List[Outcome]:
                                   **read_as(tasks[i].reader_options))
         if progress:
             progress(outcomes[i])
-    return outcomes
+    return [outcome for outcome in outcomes if outcome is not None]  # (every one set above)
 
 
 #: A manifest's columns: the Outcome fields, in order.

@@ -49,6 +49,7 @@ from .feature_file import content_digest
 from .io.images import write_image
 from .keypoint_rows import keypoint_slopes
 from .outputs import atomic_output
+from ._paths import PathLike
 
 
 def names_to_pair(name0: str, name1: str) -> str:
@@ -141,7 +142,7 @@ def feature_datasets(keypoints: Sequence[cv2.KeyPoint], descriptors: Optional[np
                          "pixel counts > 0")
     width, height = (int(v) for v in size)
     colmap = keypoints_to_colmap(keypoints)  # (x + 0.5, y + 0.5, scale, orientation)
-    bad = np.flatnonzero(~np.isfinite(colmap).all(axis=1)) if n else []
+    bad = np.flatnonzero(~np.isfinite(colmap).all(axis=1)) if n else np.zeros(0, int)
     if len(bad):
         raise ValueError(f"keypoint {bad[0]} at {keypoints[bad[0]].pt} (size "
                          f"{keypoints[bad[0]].size}); expected finite coordinates and sizes")
@@ -246,7 +247,7 @@ def features_digest(path: "os.PathLike", name: str) -> str:
         return _group_digest(group)
 
 
-def check_file_kind(path: "os.PathLike", kind: str) -> None:
+def check_file_kind(path: PathLike, kind: str) -> None:
     """Raises ValueError if the HDF5 file ``path`` (when it exists) holds groups of the
     other kind than ``kind``: pair groups (holding ``matches0``) in what should be a
     features file, or image groups (holding ``keypoints``) in what should be a matches
@@ -338,7 +339,7 @@ def match_scores(distances) -> np.ndarray:
     return np.clip(1.0 - d * d / 2.0, 0.0, 1.0).astype(np.float32)
 
 
-def write_matches(path: "os.PathLike", name0: str, name1: str, matches: Sequence[cv2.DMatch],
+def write_matches(path: PathLike, name0: str, name1: str, matches: Sequence[cv2.DMatch],
                   num_keypoints0: int, num_keypoints1: int, overwrite: bool = False,
                   digests: Optional[Tuple[str, str]] = None,
                   features: Optional["os.PathLike"] = None) -> None:

@@ -137,7 +137,8 @@ def run(args: argparse.Namespace) -> int:
         # lazy: defers pycolmap (optional: liff[sfm]) and SciPy (liff.hloc imports liff.colmap)
         from ..hloc import feature_file_group, image_name, updated, write_matches
 
-        digests = tuple(content_digest(feature_file_group(f)[0]) for f in (fa, fb))
+        digests = (content_digest(feature_file_group(fa)[0]),
+                   content_digest(feature_file_group(fb)[0]))
         with updated(args.hloc) as partial:
             write_matches(partial, image_name(args.a), image_name(args.b), matches,
                           len(fa.keypoints), len(fb.keypoints), overwrite=True, digests=digests,

@@ -85,10 +85,10 @@ def carries_camera(path: str, args: argparse.Namespace) -> bool:
 def run(args: argparse.Namespace) -> int:
     if args.out:  # before anything is read or detected
         # The calibration files are inputs too: --out must not replace the camera it reads.
-        calibration = [path for path in (getattr(args, "camera_file", None),
-                                         getattr(args, "hci", None),
-                                         getattr(args, "lftoolbox", None)) if path]
-        refuse_inputs([args.out], [args.a, args.b] + calibration, "--out")
+        calibration_files = [path for path in (getattr(args, "camera_file", None),
+                                               getattr(args, "hci", None),
+                                               getattr(args, "lftoolbox", None)) if path]
+        refuse_inputs([args.out], [args.a, args.b] + calibration_files, "--out")
         if os.path.isdir(args.out):
             raise ValueError(f"--out {args.out} is a folder; expected a JSON file path (such as "
                              f"{os.path.join(args.out, 'pose.json')}); nothing was written")

@@ -6,6 +6,7 @@ import argparse
 import json
 import os
 from dataclasses import asdict
+from typing import Callable, Dict
 
 import numpy as np
 
@@ -80,7 +81,9 @@ def write_light_field(path: str, lf: np.ndarray, fmt: str, arrays: dict) -> None
             np.savez_compressed(partial, light_field=lf, **arrays)
             return
         image = np.round(np.clip(lf, 0, 1) * 65535).astype(np.uint16)
-        writer = {"views": io.write_views, "eslf": io.write_eslf, "mosaic": io.write_mosaic}[fmt]
+        writers: Dict[str, Callable[..., object]] = {
+            "views": io.write_views, "eslf": io.write_eslf, "mosaic": io.write_mosaic}
+        writer = writers[fmt]
         writer(partial, image)
 
 

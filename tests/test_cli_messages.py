@@ -116,3 +116,39 @@ def test_a_many_to_one_match_count_names_the_features_of_b_it_joins(tmp_path, ca
     assert int(joined.group(2)) <= int(joined.group(1)) <= features_b
     assert main(["match", a, a]) == 0  # one to one: nothing more said
     assert "many-to-one" not in capsys.readouterr().out
+
+
+def test_detect_notes_and_reader_errors_name_flags(tmp_path, capsys):
+    """Break test (break4): liff detect's warnings, as printed and in the manifest's
+    notes, kept the readers' and the detector's Python names ("read it with bit_depth=8
+    (--bit-depth 8)", "set firstSlope and lastSlope"), as did a --bit-depth too small
+    for the data ("expected bit_depth >= 16") and the hloc refusals ("--overwrite
+    (overwrite=True)"); liff match and liff colmap already named flags."""
+    import csv
+
+    lf = liff.synthetic.textured_layers((3, 3, 64, 64), seed=2).light_field.astype(np.float32)
+    np.save(tmp_path / "f255.npy", lf * 255)  # floats in 0..255: an intensity warning
+    np.save(tmp_path / "u12.npy", np.round(np.clip(lf, 0, 1) * 4095).astype(np.uint16))
+    np.save(tmp_path / "u16.npy", np.round(np.clip(lf, 0, 1) * 65535).astype(np.uint16))
+    out = tmp_path / "out"
+    assert main(["detect", str(tmp_path / "f255.npy"), str(tmp_path / "u12.npy"),
+                 "--out", str(out), "--manifest", str(tmp_path / "m.csv")]) == 0
+    err = capsys.readouterr().err
+    with open(tmp_path / "m.csv", newline="") as f:
+        notes = "\n".join(row["notes"] for row in csv.DictReader(f))
+    for text in (err, notes):
+        assert "read it with --bit-depth 8, or scale it" in text
+        assert "read it with --bit-depth 12, or scale it" in text
+        assert not re.search(r"bit_depth|firstSlope|lastSlope|\(--bit-depth \d+\)", text)
+    assert main(["detect", str(tmp_path / "u16.npy"), "--bit-depth", "8",
+                 "--out", str(tmp_path / "u16.npz")]) == 1
+    err = capsys.readouterr().err
+    assert "expected --bit-depth >= 16" in err and "bit_depth" not in err
+    feats, images = tmp_path / "h" / "f.h5", tmp_path / "h" / "images"
+    images.mkdir(parents=True)
+    (images / "u16.png").write_bytes(b"mine")
+    assert main(["detect", str(tmp_path / "u16.npy"), "--out", str(tmp_path / "u16.npz"),
+                 "--hloc", str(feats), "--hloc-images", str(images)]) == 1
+    err = capsys.readouterr().err
+    assert "or --overwrite to replace them" in err and "overwrite=True" not in err
+    assert (images / "u16.png").read_bytes() == b"mine"

@@ -386,3 +386,35 @@ def test_dry_run_refuses_exactly_what_the_run_refuses(tmp_path, capsys, monkeypa
     assert dry == real and dry.startswith("liff detect: ")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["data", "notes.csv"]
     assert (tmp_path / "notes.csv").read_text() == "mine\n"
+
+
+def test_a_list_written_with_a_byte_order_mark_and_crlf_reads_its_first_path(tmp_path):
+    """Break test (break4): a list saved by Windows Notepad (UTF-8 with a byte order
+    mark, CR LF line ends) failed its first line: '\\ufeffa.npz: no such file or folder',
+    with the mark invisible in the message."""
+    a = light_field_npz(tmp_path / "a.npz")
+    b = light_field_npz(tmp_path / "b.npz")
+    todo = tmp_path / "todo.txt"
+    todo.write_bytes(b"\xef\xbb\xbf" + f"{a}\r\n{b} --key light_field\r\n".encode())
+    inputs, _ = expand([], {}, from_list=str(todo))
+    assert [item.path for item in inputs] == [str(a), str(b)]
+
+
+def test_dry_run_says_which_given_paths_do_not_exist(tmp_path, capsys):
+    """Break test (break4): a path on the command line or in a list that does not exist
+    was listed by --dry-run as 'told when read (given)', counted among the inputs that
+    would be read, with exit status 0; the run then failed it."""
+    a = light_field_npz(tmp_path / "a.npz")
+    todo = tmp_path / "todo.txt"
+    todo.write_text(f"{tmp_path / 'gone.npz'}\n")
+    argv = ["detect", str(a), str(tmp_path / "absent.npz"), "--from-list", str(todo),
+            "--out", str(tmp_path / "out"), "--dry-run"]
+    assert main(argv) == 1
+    out = capsys.readouterr().out
+    assert f"{tmp_path / 'absent.npz'}: no such file or folder; the run would fail it" in out
+    assert f"{tmp_path / 'gone.npz'}: no such file or folder; the run would fail it" in out
+    assert f"{a}: npz" in out and "told when read" not in out
+    assert "1 input(s) would be read, 2 missing;" in out
+    assert not (tmp_path / "out").exists()
+    assert main(argv[:-1]) == 1  # the run fails them (and does the rest)
+    assert (tmp_path / "out" / "a.npz").exists()

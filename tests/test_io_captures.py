@@ -589,7 +589,7 @@ def test_cli_bit_depth(tmp_path, blob_lf, capsys):
     assert main(["detect", str(tmp_path / "raw.npy"), "--out", str(tmp_path / "c.npz"),
                  "--bit-depth", "10"]) == 1
     assert re.search(r"raw\.npy: values up to 40\d\d exceed 1023, the largest 10-bit value; "
-                     r"expected bit_depth >= 12", capsys.readouterr().err)
+                     r"expected --bit-depth >= 12", capsys.readouterr().err)
 
 
 # ---------------------------------------------------------------- masks

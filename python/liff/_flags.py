@@ -93,8 +93,14 @@ def name_flags(message: str) -> str:
         message = re.sub(rf"(?<![\w.-]){option.keyword}=(?=\S)", option.flag + " ", message)
     for keyword, flag in flags.items():
         camel = keyword != keyword.lower()  # detector parameters: unique words, named anywhere
-        pattern = rf"(?<![\w.-]){keyword}\b" + ("" if camel else r"(?= ?=| \(| \d)")
+        pattern = rf"(?<![\w.-]){keyword}\b" + ("" if camel else r"(?= ?[=<>]| \(| \d)")
         message = re.sub(pattern, flag, message)
+    # "read it with bit_depth=8 (--bit-depth 8)" has become "--bit-depth 8 (--bit-depth 8)",
+    # and "--overwrite (overwrite=True)" is the API's name beside the flag: the flag once
+    message = re.sub(r"(--[\w-]+(?: [^\s()]+)?) \(\1\)", r"\1", message)
+    message = re.sub(r"(--[\w-]+) \((\w+)=True\)",
+                     lambda m: m.group(1) if m.group(2).replace("_", "-") == m.group(1)[2:]
+                     else m.group(0), message)
     return message
 
 

@@ -76,7 +76,7 @@ def read_list(path: str) -> List[Tuple[str, dict]]:
     """
     refuse_special(path, "a text file of light field paths, one a line")
     try:
-        with open(path, encoding="utf-8") as f:
+        with open(path, encoding="utf-8-sig") as f:  # a byte order mark (Notepad) is not a path
             lines = [line.strip() for line in f]
     except (OSError, UnicodeDecodeError) as error:
         reason = getattr(error, "strerror", None) or "not UTF-8 text"

@@ -70,7 +70,8 @@ def run_task(task: Task) -> Outcome:
             result = detect_one(*task)
             outcome = Outcome(task.source, task.output, "done", result.features,
                               *result.slope_range, result.searched, result.built,
-                              result.slopes_from, notes="\n".join(result.notes),
+                              result.slopes_from,
+                              notes="\n".join(map(name_flags, result.notes)),
                               **read_as(task.reader_options))
         except Exception as error:  # reported in the manifest, as every failure of a task
             outcome = Outcome(task.source, task.output, "failed",

@@ -151,13 +151,16 @@ def dry_run(args: argparse.Namespace) -> int:
     """``--dry-run``: what would be read as what, and what the folders hold besides,
     after the run's own checks (:func:`checked_plan`)."""
     tasks, kept, _ = checked_plan(args)
+    missing = [item for item in args.inputs if not os.path.lexists(item.path)]
     for item in args.inputs:
-        print(describe(item))
+        print(f"{item.path}: no such file or folder; the run would fail it" if item in missing
+              else describe(item))
     for entry in args.left_out:
         print(f"{entry.path}: {entry.why}")
-    print(f"{len(args.inputs)} input(s) would be read; {len(args.left_out)} file(s) left out; "
-          "nothing was read or written (--dry-run)")
-    return 0
+    print(f"{len(args.inputs) - len(missing)} input(s) would be read"
+          + (f", {len(missing)} missing" if missing else "")
+          + f"; {len(args.left_out)} file(s) left out; nothing was read or written (--dry-run)")
+    return 1 if missing else 0
 
 
 def describe_slopes(outcome: batch.Outcome) -> str:

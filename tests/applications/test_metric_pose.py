@@ -20,7 +20,7 @@ import liff.cli.pose
 from liff.cli import main
 from liff.io import read_hci, read_pfm
 
-HCI = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "hci" / "cotton"
+HCI = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "hci" / "cotton"
 # The captures' slopes span [-1, 1] from the back wall to the nearest box; the detector
 # searches a little beyond (the one place these tests choose a slope range).
 CAPTURE_SLOPES = dict(firstSlope=-1.25, lastSlope=1.25, numSlopes=21)

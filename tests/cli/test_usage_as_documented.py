@@ -18,7 +18,7 @@ import pytest
 import liff
 from liff.cli import build_parser, main
 
-ROOT = os.path.join(os.path.dirname(__file__), "..")
+ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 
 
 def subcommands():

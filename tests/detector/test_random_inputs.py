@@ -32,7 +32,7 @@ import liff
 from liff.io import read_pfm, write_pfm
 from lfhelpers import assert_no_descriptors
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fuzz"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "fuzz"))
 import readers  # noqa: E402
 
 SETTINGS = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow,

@@ -18,7 +18,7 @@ import liff
 from liff import io
 from lfhelpers import zero_png
 
-COTTON = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "hci" / "cotton"
+COTTON = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "hci" / "cotton"
 
 
 def coded_lf(shape, dtype=np.uint8, seed=0):

@@ -21,7 +21,7 @@ from liff.feature_file import load_features
 from liff.preprocess import border_mask
 
 from lfhelpers import matlab_order, write_mat_v5, write_mat_v73
-from test_io_readers import COTTON, coded_lf, raises_naming
+from test_readers_and_writers import COTTON, coded_lf, raises_naming
 
 
 def write_named(folder: Path, lf: np.ndarray, name, views=None) -> None:

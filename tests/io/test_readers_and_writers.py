@@ -161,7 +161,7 @@ def test_views_folder_errors(tmp_path):
     for path in sorted(folder.iterdir(), reverse=True):  # numbered from 2
         t, s = map(int, re.findall(r"\d+", path.name))
         path.rename(folder / f"v_{t + 2}_{s + 2}.png")
-    result = io.read_views(folder)  # any contiguous block (tests/test_io_captures.py)
+    result = io.read_views(folder)  # any contiguous block (tests/io/test_real_captures.py)
     assert result.metadata["first_index"] == (2, 2)
     np.testing.assert_array_equal(result.light_field, lf)
 

@@ -9,7 +9,7 @@
 #
 # Needs .venv (made by .ci/setup.sh) with liff's Python dependencies installed.
 #   LIFF_SANITIZE_PYTHON=0   C++ tests only
-#   PYTEST_ARGS="tests/test_properties.py -x"   what pytest runs (default: tests)
+#   PYTEST_ARGS="tests/detector/test_random_inputs.py -x"   what pytest runs (default: tests)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 py=.venv/bin/python

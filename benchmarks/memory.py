@@ -67,7 +67,7 @@ TABLE = [
 ]
 
 #: The small cases (each under a second and 300 MB, typical content): in
-#: tests/test_memory_estimate.py.
+#: tests/core/test_memory_estimate.py.
 QUICK = [case for case in TABLE if case.startswith(("5x5x", "1x1x864x")) and "sparse" not in case
          and "dense" not in case]
 

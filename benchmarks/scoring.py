@@ -41,7 +41,7 @@ def above_threshold(keypoints: Sequence[cv2.KeyPoint], contrast_threshold: float
     kept: those with response >= contrast_threshold / n_octave_layers, from a run at a
     lower threshold. The final contrast test is this comparison; the pre-test at half of
     it could in principle drop a sample whose refinement more than doubles its |DoG|,
-    which tests/test_scoring.py has not seen happen, so one run serves a whole
+    which tests/benchmarks/test_scoring.py has not seen happen, so one run serves a whole
     threshold sweep."""
     limit = contrast_threshold / n_octave_layers
     return tuple(k for k in keypoints if k.response >= limit)

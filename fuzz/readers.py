@@ -1,5 +1,5 @@
 """The readers under test, shared by the fuzz target (fuzz_readers.py), the corpus
-replay (tests/test_fuzz_corpus.py) and the reader property tests.
+replay (tests/io/test_fuzz_corpus_replay.py) and the reader property tests.
 
 Every light field format of liff.io's registry (liff.io.formats.FORMATS, its ``fuzz``
 field: the input's name ending and the options to read it with) is a target, named as
@@ -76,7 +76,7 @@ class KnownBug:
 # Reader bugs found by fuzzing, reported and not yet fixed. The fuzz target lets an
 # input that hits one pass, so that a run goes on to find new ones, and counts the
 # hits. Each has a reproducer fuzz/known_bugs/<reader>/<id> that
-# tests/test_fuzz_corpus.py replays as a strict xfail: once the bug is fixed that test
+# tests/io/test_fuzz_corpus_replay.py replays as a strict xfail: once the bug is fixed that test
 # fails until the entry below is removed and the reproducer moved into
 # fuzz/corpus/<reader>/. The six parameters.cfg bugs of read_hci found on 2026-11-23
 # are fixed; their reproducers are fuzz/corpus/hci/bug-*.

@@ -240,3 +240,18 @@ def zero_png(path, width, height):
     idat = b"".join(packer.compress(row) for _ in range(height)) + packer.flush()
     Path(path).write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0))
                           + chunk(b"IDAT", idat) + chunk(b"IEND", b""))
+
+
+def toolbox_H(h11=2e-4, h13=-1e-5, h15=0.0, h31=-2e-4, h33=2.5e-3, h35=0.0, views=9, pixels=301):
+    """A plausible rectified H (square pixels, one baseline), recentred as the toolbox's
+    LFRecenterIntrinsics does: the centre sample (1-based) maps to s = t = u = v = 0."""
+    H = np.eye(5)
+    H[0, 0] = H[1, 1] = h11
+    H[0, 2] = H[1, 3] = h13
+    H[2, 0] = H[3, 1] = h31
+    H[2, 2] = H[3, 3] = h33
+    centre = np.array([(views - 1) / 2 + 1, (views - 1) / 2 + 1, (pixels - 1) / 2 + 1 + 7,
+                       (pixels - 1) / 2 + 1 - 4, 1.0])  # principal point off centre
+    H[:4, 4] = 0
+    H[:4, 4] = -(H @ centre)[:4]
+    return H

@@ -14,9 +14,9 @@
 //      defined in liff.cpp (the definition assigns every table entry by name, so a
 //      missing argument does not compile; cpp/tests/test_api.cpp calls it with the
 //      table in order);
-//   4. its getter and setter in python/liff/_core.pyi (tests/test_api.py compares the
+//   4. its getter and setter in python/liff/_core.pyi (tests/detector/test_feature2d_api.py compares the
 //      stubs with the module) and its keyword in the README's create() signature
-//      (tests/test_api.py compares it with the table);
+//      (tests/detector/test_feature2d_api.py compares it with the table);
 //   5. its use in the core.
 #pragma once
 

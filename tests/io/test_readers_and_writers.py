@@ -18,7 +18,7 @@ import liff
 from liff import io
 from lfhelpers import zero_png
 
-COTTON = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "hci" / "cotton"
+COTTON = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "hci" / "cotton"
 
 
 def coded_lf(shape, dtype=np.uint8, seed=0):
@@ -161,7 +161,7 @@ def test_views_folder_errors(tmp_path):
     for path in sorted(folder.iterdir(), reverse=True):  # numbered from 2
         t, s = map(int, re.findall(r"\d+", path.name))
         path.rename(folder / f"v_{t + 2}_{s + 2}.png")
-    result = io.read_views(folder)  # any contiguous block (tests/test_io_captures.py)
+    result = io.read_views(folder)  # any contiguous block (tests/io/test_real_captures.py)
     assert result.metadata["first_index"] == (2, 2)
     np.testing.assert_array_equal(result.light_field, lf)
 

@@ -14,7 +14,7 @@ import pytest
 import liff
 from liff.io import read_hci
 
-DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "hci" / "cotton"
+DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "hci" / "cotton"
 CROP = slice(128, 384)  # rows and columns of each view
 
 

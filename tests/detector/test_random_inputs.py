@@ -7,10 +7,10 @@ with finite positive sizes and finite responses, slopes within [firstSlope,
 lastSlope], descriptors of shape (N, 128) holding SIFT's integers in [0, 255] (None
 when N = 0), and respects the mask and nfeatures.
 
-Fixed examples of bad input are in test_errors.py and of input forms in
-test_inputs.py; this file draws them at random. Known bugs that the strategies here
+Fixed examples of bad input are in test_bad_input_errors.py and of input forms in
+test_input_forms.py; this file draws them at random. Known bugs that the strategies here
 steer around have their own strict-xfail tests at the end (and in
-test_fuzz_corpus.py for the readers).
+test_fuzz_corpus_replay.py for the readers).
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ import liff
 from liff.io import read_pfm, write_pfm
 from lfhelpers import assert_no_descriptors
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fuzz"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "fuzz"))
 import readers  # noqa: E402
 
 SETTINGS = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow,
@@ -494,7 +494,7 @@ def hci_folders(draw):
     parameters.cfg (grids that fit or not, disparities, junk lines, bad syntax) and
     perhaps a ground-truth PFM. Known bugs (non-UTF-8 or '%' in parameters.cfg, a
     grid that is not a positive integer or is huge, non-numeric disparities) are left
-    to test_fuzz_corpus.py's reproducers."""
+    to test_fuzz_corpus_replay.py's reproducers."""
     files = {}
     n = draw(st.integers(0, 5))
     size = draw(st.sampled_from([(4, 4), (3, 5)]))

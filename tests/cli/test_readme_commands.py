@@ -30,7 +30,7 @@ import pytest
 import liff
 from liff.cli import build_parser, main
 
-README = os.path.join(os.path.dirname(__file__), "..", "README.md")
+README = os.path.join(os.path.dirname(__file__), "..", "..", "README.md")
 
 #: options a small ``liff synth`` adds where the README's line gives none
 SMALL_SYNTH = {"disks": {"--views": "5", "--size": ("64", "64")},

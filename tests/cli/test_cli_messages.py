@@ -13,7 +13,7 @@ import liff
 from liff.cli import main
 
 from lfhelpers import write_mat_v73
-from test_cli import hci_folder
+from test_subcommands_end_to_end import hci_folder
 
 
 def eslf_image(path, n=5, size=64):

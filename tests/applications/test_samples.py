@@ -9,7 +9,7 @@ import sys
 
 import cv2
 
-SAMPLES = os.path.join(os.path.dirname(__file__), "..", "samples")
+SAMPLES = os.path.join(os.path.dirname(__file__), "..", "..", "samples")
 
 
 def run_sample(name, *args):

@@ -119,7 +119,7 @@ def _textures():
     turn = cv2.getRotationMatrix2D((160, 120), 30, 1.0)  # 30 degrees counter-clockwise
     yield from images
     yield cv2.warpAffine(images[0], turn, (320, 240))
-    cotton = Path(__file__).resolve().parents[1].parent / "shared/data/hci/cotton/input_Cam040.png"
+    cotton = Path(__file__).resolve().parents[2].parent / "shared/data/hci/cotton/input_Cam040.png"
     if cotton.is_file():
         yield cv2.imread(str(cotton), cv2.IMREAD_GRAYSCALE)[128:384, 128:384]
 

@@ -17,7 +17,7 @@ import pytest
 import liff
 from liff import synthetic
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 import memory  # noqa: E402  (benchmarks/memory.py)
 
 #: The most the estimate may exceed the measured peak (issue 26: "within 25%").

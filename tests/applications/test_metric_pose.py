@@ -20,7 +20,9 @@ import liff.cli.pose
 from liff.cli import main
 from liff.io import read_hci, read_pfm
 
-HCI = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "hci" / "cotton"
+from lfhelpers import toolbox_H
+
+HCI = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "hci" / "cotton"
 # The captures' slopes span [-1, 1] from the back wall to the nearest box; the detector
 # searches a little beyond (the one place these tests choose a slope range).
 CAPTURE_SLOPES = dict(firstSlope=-1.25, lastSlope=1.25, numSlopes=21)
@@ -153,20 +155,8 @@ def test_hci_camera_errors_name_file_and_entry(tmp_path):
 
 # --- Light Field Toolbox ------------------------------------------------------------------
 
-def toolbox_H(h11=2e-4, h13=-1e-5, h15=0.0, h31=-2e-4, h33=2.5e-3, h35=0.0, views=9, pixels=301):
-    """A plausible rectified H (square pixels, one baseline), recentred as the toolbox's
-    LFRecenterIntrinsics does: the centre sample (1-based) maps to s = t = u = v = 0."""
-    H = np.eye(5)
-    H[0, 0] = H[1, 1] = h11
-    H[0, 2] = H[1, 3] = h13
-    H[2, 0] = H[3, 1] = h31
-    H[2, 2] = H[3, 3] = h33
-    centre = np.array([(views - 1) / 2 + 1, (views - 1) / 2 + 1, (pixels - 1) / 2 + 1 + 7,
-                       (pixels - 1) / 2 + 1 - 4, 1.0])  # principal point off centre
-    H[:4, 4] = 0
-    H[:4, 4] = -(H @ centre)[:4]
-    return H
-
+# (toolbox_H, the calibration matrix these tests use, is in lfhelpers: tests/cli/test_camera_file.py
+# uses it too.)
 
 def test_lftoolbox_camera_agrees_with_the_toolbox_rays():
     """Slopes simulated from H's own ray model (a ray through pixel k of view i crosses

@@ -13,7 +13,7 @@ import pytest
 import liff
 from liff import synthetic
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 import baselines  # noqa: E402
 from scoring import above_threshold, score_blobs  # noqa: E402
 

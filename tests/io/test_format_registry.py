@@ -18,7 +18,7 @@ from liff.cli import build_parser
 from liff.io import LightFieldFile
 from liff.io.formats import FORMATS, OPTIONS, formats_table
 
-ROOT = os.path.join(os.path.dirname(__file__), "..")
+ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
 
 
 def reader_functions(module: types.ModuleType) -> list:

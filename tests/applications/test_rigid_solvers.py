@@ -195,7 +195,7 @@ def test_robust_rigid_fit_finds_the_motion_among_wrong_matches(wrong):
 def test_robust_rigid_fit_agrees_with_colmaps():
     """The seed :func:`liff.pose.ransac_pose` gives is the one pycolmap's
     estimate_rigid3d_robust gave, which it replaces (without its 0.06 s import)."""
-    import pycolmap  # a test dependency (tests/test_colmap.py)
+    import pycolmap  # a test dependency (tests/applications/test_colmap.py)
     for seed, wrong in enumerate((100, 250)):
         X1, X2, _, _ = _points_with_outliers(np.random.default_rng(10 + seed), 300, wrong)
         R, t, inliers = liff.pose.ransac_pose(X1, X2, 0.2, seed)

@@ -362,7 +362,7 @@ def test_readme_states_create_with_the_tables_defaults():
     import re
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     match = re.search(r"`liff\.LiFF\.create\((.*?)\)`", text, re.S)
     assert match, "README has no `liff.LiFF.create(...)` signature"
     written = [part.split("=")[0].strip() for part in " ".join(match.group(1).split()).split(",")]

@@ -21,7 +21,7 @@ from liff.feature_file import load_features
 from liff.preprocess import border_mask
 
 from lfhelpers import matlab_order, write_mat_v5, write_mat_v73
-from test_io_readers import COTTON, coded_lf, raises_naming
+from test_readers_and_writers import COTTON, coded_lf, raises_naming
 
 
 def write_named(folder: Path, lf: np.ndarray, name, views=None) -> None:
@@ -249,7 +249,7 @@ def test_cotton_star_and_cross_are_as_accurate_as_the_full_grid(tmp_path):
     cotton, slopes -2..2 (9 slopes): full 0.019, star 0.021, cross 0.019."""
     if not COTTON.is_dir():
         pytest.skip(f"HCI 'cotton' light field not found at {COTTON}")
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     from hci_depth import truth_at
     from incomplete_views import read_subset, subsets
 
@@ -406,12 +406,12 @@ def test_mat_variable_choice_and_errors(tmp_path):
     raises_naming(tmp_path / "absent.mat", r"no such file", io.read_mat, tmp_path / "absent.mat")
 
 
-@pytest.mark.parametrize("bug", sorted(p.name for p in (Path(__file__).resolve().parents[1] / "fuzz"
+@pytest.mark.parametrize("bug", sorted(p.name for p in (Path(__file__).resolve().parents[2] / "fuzz"
                                                           / "corpus" / "mat").glob("bug-loadmat-*")))
 def test_damaged_mat_files_scipy_would_crash_on_are_refused(bug):
     """scipy 1.17's loadmat crashes the interpreter on data type codes without a dtype;
     liff's guard (liff/io/_matv5.py) refuses them first."""
-    path = Path(__file__).resolve().parents[1] / "fuzz" / "corpus" / "mat" / bug
+    path = Path(__file__).resolve().parents[2] / "fuzz" / "corpus" / "mat" / bug
     raises_naming(path, r"\['LF'\]: not read \(numeric data has data type \d+; expected one of "
                   r"\[1, 2, 3, 4, 5, 6, 7, 9, 12, 13\]\)", io.read_mat, path)
 
@@ -436,7 +436,7 @@ def test_a_dependency_missing_all_the_same_says_how_to_install_it(tmp_path, monk
 def test_h5py_and_scipy_are_dependencies_not_extras():
     import tomllib
 
-    with open(Path(__file__).resolve().parents[1] / "pyproject.toml", "rb") as f:
+    with open(Path(__file__).resolve().parents[2] / "pyproject.toml", "rb") as f:
         project = tomllib.load(f)["project"]
     names = {re.match(r"[\w-]+", d).group(0) for d in project["dependencies"]}
     assert {"h5py", "scipy"} <= names

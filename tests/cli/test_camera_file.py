@@ -15,7 +15,7 @@ import liff
 from liff.cli import main
 from liff.cli.calibration import add_camera_options, camera_from_args, read_camera_file
 
-from test_metric import toolbox_H
+from lfhelpers import toolbox_H
 
 
 @pytest.fixture(scope="module")

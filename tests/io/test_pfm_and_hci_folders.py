@@ -13,7 +13,7 @@ import liff
 from liff import synthetic
 from liff.io import read_hci, read_pfm, write_pfm
 
-COTTON = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "hci" / "cotton"
+COTTON = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "hci" / "cotton"
 
 
 @pytest.mark.parametrize("shape", [(5, 7), (4, 6, 3)])

@@ -3,10 +3,12 @@
 For lenslet images (HCI cotton written as ESLF, n = 9, when ../shared/data/hci/cotton is
 present; Lytro-like ``synthetic.lenslet_capture`` scenes, n = 9 to 16, with and without
 alpha; ``textured_layers`` written by ``write_eslf`` without any vignetting) and for
-images that are not (cotton's centre view and its mosaic; noise of several sizes),
+images that are not (cotton's centre view and its mosaic; noise of several sizes), and
+``liff synth disks`` (low contrast, no vignetting) as ESLF and as mosaics,
 prints each profile's best period and the share of its variance that period explains
-(chance-adjusted; see ``liff.io.eslf.periodicity``), and the decision. The thresholds in
-liff/io/eslf.py (0.3 alone, 0.2 with a size that divides the image) sit between the two.
+(detrended, chance-adjusted; see ``liff.io.eslf.periodicity``), and the decision. The
+thresholds in liff/io/eslf.py (0.3, or 0.2 with a size that divides the image, on both
+axes at one period) sit between the two.
 
 Usage:  python benchmarks/lenslet_size.py [--scene DIR]
 """
@@ -48,6 +50,14 @@ def cases(scene: str):
     for n in (9, 14, 15):
         plain = synthetic.textured_layers((n, n, 64, 80)).light_field
         yield f"plain layers, n = {n}", True, eslf_image(np.round(plain * 255).astype(np.uint8))
+    for views, size in ((5, (96, 128)), (5, (128, 96)), (5, (160, 240)), (7, (96, 128)),
+                        (9, (96, 128)), (14, (64, 80))):  # liff synth disks, 16-bit
+        shape = (views, views) + size
+        lf = synthetic.render_disks(synthetic.paper_disks(shape=shape, seed=0), shape)
+        lf = np.round(np.clip(lf, 0, 1) * 65535).astype(np.uint16)
+        label = f"liff synth disks, {views}x{views} views of {size[0]}x{size[1]}"
+        yield f"{label}, as ESLF", True, eslf_image(lf)
+        yield f"{label}, mosaic", False, lf.swapaxes(1, 2).reshape(views * size[0], views * size[1])
     rng = np.random.default_rng(0)
     for size in ((40, 45), (64, 64), (900, 1000, 3)):
         yield f"noise {'x'.join(map(str, size))}", False, rng.integers(0, 256, size, dtype=np.uint8)

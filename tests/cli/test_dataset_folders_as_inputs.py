@@ -418,3 +418,20 @@ def test_dry_run_says_which_given_paths_do_not_exist(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
     assert main(argv[:-1]) == 1  # the run fails them (and does the rest)
     assert (tmp_path / "out" / "a.npz").exists()
+
+
+def test_a_mosaic_in_a_dataset_folder_is_a_failed_row_not_zero_features(tmp_path, capsys):
+    """Break test 5: a mosaic image (liff synth --format mosaic) among a dataset's files is
+    taken as a lenslet image (docs/INPUTS.md, folder walk) and must then be refused, not
+    read with a lenslet size only its column profile suggests (19, not dividing it) and
+    reported done with 0 features."""
+    folder, out = tmp_path / "ds", tmp_path / "dsf"
+    assert main(["synth", "disks", "--views", "5", "--size", "96", "128", "--format", "mosaic",
+                 "--out", str(folder / "mos.png")]) == 0
+    assert main(["detect", str(folder), "--out", str(out)]) == 1
+    (row,) = read_manifest(out)
+    assert row["status"] == "failed" and row["format"] == "eslf", row
+    assert "cannot tell the lenslet size" in row["error"] and "(--lenslet N)" in row["error"]
+    assert "along both rows and columns" in row["error"]
+    err = capsys.readouterr().err
+    assert "mos.png" in err and "failed" in err and "0 features" not in err

@@ -648,3 +648,43 @@ def test_cli_mask_file_and_auto(tmp_path, blob_lf, capsys):
     kept = load_features(tmp_path / "a.npz").keypoints
     assert len(kept) == len(liff.LiFF.create().detect(capture, auto))
     assert all(auto[round(k.pt[1]), round(k.pt[0])] for k in kept)
+
+
+def mosaic_image(lf: np.ndarray) -> np.ndarray:
+    """(T, S, V, U[, C]) as one image of T x S tiles."""
+    T, S, V, U = lf.shape[:4]
+    return lf.transpose((0, 2, 1, 3) + tuple(range(4, lf.ndim))).reshape((T * V, S * U) + lf.shape[4:])
+
+
+def eslf_of(lf: np.ndarray) -> np.ndarray:
+    """(T, S, V, U[, C]) as an ESLF image (no vignetting, no alpha)."""
+    T, S, V, U = lf.shape[:4]
+    return lf.transpose((2, 0, 3, 1) + tuple(range(4, lf.ndim))).reshape((V * T, U * S) + lf.shape[4:])
+
+
+def disks(views: int, size) -> np.ndarray:
+    """liff synth disks as it writes it: the paper's low-contrast disks, 16-bit."""
+    shape = (views, views) + tuple(size)
+    lf = synthetic.render_disks(synthetic.paper_disks(shape=shape, seed=0), shape)
+    return np.round(np.clip(lf, 0, 1) * 65535).astype(np.uint16)
+
+
+@pytest.mark.parametrize("views, size", [(5, (96, 128)), (5, (128, 96)), (7, (96, 128)),
+                                         (3, (64, 80)), (5, (64, 80))])
+def test_a_mosaic_is_not_taken_for_a_lenslet_image(views, size):
+    """Break test 5: the mosaics of liff synth disks show a period along one axis only
+    (19 along the columns of 5x5 views of 96x128, 0.33 of the variance; 21 along the
+    rows, 0.21), which a lenslet image, whose lenslets are square, shows along both."""
+    with pytest.raises(ValueError, match=r"cannot tell the lenslet size .* along both rows "
+                       r"and columns|the lenslet size is ambiguous: rows: (\d+) .*columns: (?!\1 )"):
+        io.detect_lenslet_size(mosaic_image(disks(views, size)))
+
+
+@pytest.mark.parametrize("views, size", [(5, (96, 128)), (5, (128, 96)), (5, (160, 240)),
+                                         (7, (128, 96)), (9, (96, 128)), (14, (64, 80))])
+def test_lenslet_images_of_low_contrast_scenes_are_detected(views, size):
+    """The same scenes as ESLF images (no vignetting: only the content shows the
+    lenslets), detected along both axes; 5x5 views of 128x96 and 160x240 were refused or
+    taken on one profile's word before the profiles were detrended."""
+    n, evidence = io.detect_lenslet_size(eslf_of(disks(views, size)))
+    assert n == views and evidence["rows"][0] == evidence["columns"][0] == views

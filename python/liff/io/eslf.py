@@ -27,14 +27,19 @@ LYTRO_LENSLET_SIZE = 14
 LENSLET_SIZES = range(2, 33)
 #: lenslets a signal must span on an axis for its period to count
 MIN_LENSLETS = 8
-# Thresholds (periodicity() scores, benchmarks/lenslet_size.py): lenslet images (cotton
-# as ESLF, n = 9; synthetic captures and plain layers, n = 9 to 16) score 0.53-1.0 on
-# every profile; images that are not lenslet-interleaved (cotton's centre view and
-# mosaic, noise from 40x45 to 900x1000 pixels) at most 0.12.
+# Thresholds (periodicity() scores of detrended profiles, benchmarks/lenslet_size.py):
+# lenslet images (cotton as ESLF, n = 9; synthetic captures and plain layers, n = 9 to
+# 16; liff synth disks as ESLF, 5x5 to 14x14 views, no vignetting) score 0.28-1.0 on
+# both pixel profiles; images that are not lenslet-interleaved (cotton's centre view and
+# mosaic, liff synth's mosaics, noise from 40x45 to 900x1000 pixels) score up to 0.5 on
+# one profile, but at most 0.16 on both at one period (a mosaic's tiles repeat along
+# one axis by chance; lenslets are square and show along both).
 #: share of a signal's variance a period must explain to be taken on its own ...
 STRONG_PERIODICITY = 0.3
 #: ... or, when the size also divides the image's height and width, at least this share
 WEAK_PERIODICITY = 0.2
+#: the pairs of profiles of which one must show the period along both axes
+AXIS_PAIRS = (("rows", "columns"), ("alpha rows", "alpha columns"))
 #: rows (columns) sampled to build a profile along the columns (rows)
 PROFILE_LINES = 256
 
@@ -48,14 +53,22 @@ def periodicity(profile: np.ndarray, sizes=LENSLET_SIZES) -> Dict[int, float]:
     score is ``(R^2 - chance) / (1 - chance)``: 1 for a profile that repeats exactly
     every n samples (and every multiple of n), about 0 for noise. Sizes with fewer than
     ``MIN_LENSLETS`` periods in the profile are left out.
+
+    Before folding, the profile's mean over each window of n samples is subtracted
+    (which leaves a period of n as it is): what varies over many lenslets (the tiles of
+    a mosaic, shading, the scene's large shapes) would otherwise be explained in part by
+    any long period.
     """
     profile = np.asarray(profile, np.float64)
+    sums = np.concatenate([[0.0], np.cumsum(profile)])
     scores = {}
     for n in sizes:
-        periods = len(profile) // n
-        if periods < MIN_LENSLETS:
+        if len(profile) // n < MIN_LENSLETS:
             continue
-        folded = profile[: periods * n].reshape(periods, n)
+        window_means = (sums[n:] - sums[:-n]) / n  # mean of profile[i:i + n]
+        detrended = profile[n // 2: n // 2 + len(window_means)] - window_means
+        periods = len(detrended) // n  # (one fewer than the profile's when n divides it)
+        folded = detrended[: periods * n].reshape(periods, n)
         total = folded.var()
         explained = folded.mean(axis=0).var() / total if total > 0 else 0.0
         chance = (n - 1) / (periods * n - 1)
@@ -112,7 +125,10 @@ def detect_lenslet_size(image: np.ndarray, has_alpha: Optional[bool] = None,
     along the columns (see ``_profiles``); and whether n divides the image's height and
     width. A period that explains at least ``STRONG_PERIODICITY`` of a profile's
     variance counts on its own, one that explains ``WEAK_PERIODICITY`` only if it
-    divides the image size too. All the profiles that count must agree.
+    divides the image size too. All the profiles that count must agree, and the period
+    must count along both axes, in the pixels (``rows`` and ``columns``) or the alpha:
+    lenslets are square, while one profile alone may show a period by chance (the tiles
+    of a mosaic).
 
     Parameters
     ----------
@@ -132,8 +148,9 @@ def detect_lenslet_size(image: np.ndarray, has_alpha: Optional[bool] = None,
     Raises
     ------
     ValueError
-        If no profile shows a period (e.g. an image that is not lenslet-interleaved, or
-        too small to hold ``MIN_LENSLETS`` lenslets a side), or the profiles disagree.
+        If no period shows along both axes (e.g. an image that is not
+        lenslet-interleaved, or too small to hold ``MIN_LENSLETS`` lenslets a side), or
+        the profiles disagree.
         Pass the size explicitly then.
 
     Warns
@@ -157,15 +174,19 @@ def detect_lenslet_size(image: np.ndarray, has_alpha: Optional[bool] = None,
                                      or (score >= WEAK_PERIODICITY and divides(n)))}
     described = ", ".join(f"{name}: {'-' if n is None else n} ({score:.2f})"
                           for name, (n, score) in evidence.items())
-    if not counted:
-        raise ValueError(f"{source}: cannot tell the lenslet size from the image ({width}x{height}; "
-                         f"best period and share of variance explained per profile: "
-                         f"{described}); expected an ESLF image whose lenslets show in its "
-                         f"pixels or alpha, or the size given (n=N)")
     sizes = sorted(set(counted.values()))
     if len(sizes) > 1:
         raise ValueError(f"{source}: the lenslet size is ambiguous: {described}; expected the "
                          f"profiles to agree, or the size given (n=N)")
+    if not any(all(name in counted for name in pair) for pair in AXIS_PAIRS):
+        # (one axis alone: a mosaic's tiles, a texture; lenslets are square)
+        raise ValueError(f"{source}: cannot tell the lenslet size from the image ({width}x{height}; "
+                         f"best period and share of variance explained per profile: "
+                         f"{described}; a size is taken when one period shows along both rows "
+                         f"and columns, in the pixels or the alpha, explaining at least "
+                         f"{STRONG_PERIODICITY:g} of each, or {WEAK_PERIODICITY:g} where it "
+                         f"divides the image); expected an ESLF image whose lenslets show in its "
+                         f"pixels or alpha, or the size given (n=N)")
     n = sizes[0]
     if not divides(n):
         others = sorted((m for m in LENSLET_SIZES if m > 2 and divides(m) and m % n and n % m),

@@ -27,7 +27,7 @@ from typing import List, Optional, Sequence, Tuple
 from ._flags import add_reader_options, reader_options, shown_options
 from ._paths import refuse_special
 from .io.formats import FORMATS, OPTIONS, formats_taking
-from .io.layout import Entry, expand as expand_path, expand_match
+from .io.layout import FEATURE_FILE, Entry, expand as expand_path, expand_match
 from .io.views import compile_pattern
 
 
@@ -103,11 +103,14 @@ def read_list(path: str) -> List[Tuple[str, dict]]:
 
 
 def expand(paths: Sequence[str], options: dict, from_list: Optional[str] = None,
-           features: bool = False) -> Tuple[List[Input], List[Entry]]:
+           features: bool = False, light_field_flags: Sequence[str] = ()
+           ) -> Tuple[List[Input], List[Entry]]:
     """(the inputs, the entries of folders left out) that PATH arguments and the list
     file ``from_list`` name; ``options`` are the command line's reader options (as
     :func:`liff._flags.reader_options` gives them). Repeats are dropped. ``features``: liff
-    feature files are inputs too.
+    feature files are inputs too; ``light_field_flags``: the other flags given that
+    apply to light fields only (the detector's, ``--preprocess``), an error when every
+    input is a feature file (:func:`resolve_options`).
 
     Raises
     ------
@@ -152,19 +155,36 @@ def expand(paths: Sequence[str], options: dict, from_list: Optional[str] = None,
         if os.path.realpath(item.path) not in seen:
             seen.add(os.path.realpath(item.path))
             unique.append(item)
-    resolve_options(unique, options, from_list)
+    resolve_options(unique, options, from_list, light_field_flags)
     return unique, left_out
 
 
-def resolve_options(inputs: List[Input], options: dict, from_list: Optional[str]) -> None:
+def is_feature_input(item: Input) -> bool:
+    """Whether ``item`` is a feature file of ``liff detect`` (its features used as stored)."""
+    return item.format is None and item.why == FEATURE_FILE
+
+
+def resolve_options(inputs: List[Input], options: dict, from_list: Optional[str],
+                    light_field_flags: Sequence[str] = ()) -> None:
     """Sets each input's ``options``: the command line's that its format takes, then its
     list line's (which must fit). Raises ValueError naming the flag when a list line's
-    option does not fit its format, or a command-line option fits no input."""
+    option does not fit its format, or a command-line option fits no input: a feature
+    file takes none, and when every input is one, ``light_field_flags`` (the detector's
+    flags given, ``--preprocess``) are named with the reader options given."""
     given = {k: v for k, v in options.items() if k != "format"}
+    features = [item for item in inputs if is_feature_input(item)]
+    if inputs and len(features) == len(inputs) and (given or light_field_flags):
+        flags = [OPTIONS[k].flag for k in given] + list(light_field_flags)
+        raise ValueError(
+            f"option(s) {', '.join(flags)} do not apply: the inputs are feature files "
+            f"({', '.join(item.path for item in features[:3])}"
+            f"{', ...' if len(features) > 3 else ''}), whose features are used as stored; "
+            "expected light fields (read and detected with these options), or none of them")
     used = set()
     for item in inputs:
         fmt = FORMATS.get(item.format) if item.format else None
-        takes = fmt.takes() if fmt is not None else tuple(OPTIONS)
+        takes = (() if is_feature_input(item) else fmt.takes() if fmt is not None
+                 else tuple(OPTIONS))
         misfits = [k for k in item.listed if k != "format" and k not in takes]
         if misfits:
             raise ValueError(f"{from_list}: {item.path}: {', '.join(OPTIONS[k].flag for k in misfits)} "
@@ -179,9 +199,11 @@ def resolve_options(inputs: List[Input], options: dict, from_list: Optional[str]
     if unused and inputs:
         formats = sorted({item.format for item in inputs if item.format})
         takes = tuple(k for k in OPTIONS if all(k in FORMATS[f].takes() for f in formats))
+        stored = (f" (and {len(features)} feature file(s), whose features are used as stored)"
+                  if features else "")
         raise ValueError(
             f"option(s) {', '.join(OPTIONS[k].flag for k in unused)} do not apply to format "
-            f"{', '.join(repr(f) for f in formats)} of any input ("
+            f"{', '.join(repr(f) for f in formats)} of any input{stored} ("
             + "; ".join(f"{OPTIONS[k].flag}: {', '.join(formats_taking(k))}" for k in unused)
             + f"); expected {', '.join(OPTIONS[k].flag for k in takes)}")
 
@@ -209,13 +231,16 @@ def expand_inputs(paths: Sequence[str], options: dict, from_list: Optional[str] 
     return [item.path for item in expand(paths, options, from_list, features)[0]]
 
 
-def input_options(paths: Sequence[str], args: argparse.Namespace) -> List[dict]:
+def input_options(paths: Sequence[str], args: argparse.Namespace,
+                  light_field_flags: Sequence[str] = ()) -> List[dict]:
     """The reader options each of ``paths`` (light fields given by themselves: ``liff
     pose A B``, ``liff match A B``) is read with: its format as liff.io.layout tells it,
     and the command line's options that format takes, resolved over all of them as for
     a batch (ValueError naming a flag that no input takes, or a folder holding more than
-    one light field)."""
-    inputs = expand(paths, reader_options(args), features=True)[0]
+    one light field; or, when both are feature files, naming the reader options and
+    ``light_field_flags`` given, which do not apply to them)."""
+    inputs = expand(paths, reader_options(args), features=True,
+                    light_field_flags=light_field_flags)[0]
     found = {os.path.realpath(item.path): item.options for item in inputs}
     for path in paths:
         if os.path.realpath(path) not in found:
@@ -241,14 +266,15 @@ def _glob(pattern: str) -> List[str]:
 
 
 def expand_args(args: argparse.Namespace, options: dict, from_list: Optional[str] = None,
-                features: bool = False) -> None:
+                features: bool = False, light_field_flags: Sequence[str] = ()) -> None:
     """``args.paths`` expanded (:func:`expand_inputs`), ``args.inputs`` the inputs with
     their format and reader options (:class:`Input`), ``args.left_out`` what the
     folders held that is not an input; the paths as given stay in ``args.given_paths``:
     a folder given is an input too, so nothing is written inside it (a later run over
     the folder would read the outputs as light fields)."""
     args.given_paths = list(args.paths)
-    args.inputs, args.left_out = expand(args.paths, options, from_list, features)
+    args.inputs, args.left_out = expand(args.paths, options, from_list, features,
+                                        light_field_flags)
     args.paths = [item.path for item in args.inputs]
 
 

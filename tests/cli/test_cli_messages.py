@@ -152,3 +152,50 @@ def test_detect_notes_and_reader_errors_name_flags(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "or --overwrite to replace them" in err and "overwrite=True" not in err
     assert (images / "u16.png").read_bytes() == b"mine"
+
+
+def feature_files(tmp_path):
+    """Two liff detect feature files of one scene, and the scene (.npy)."""
+    lf = liff.synthetic.textured_layers((3, 3, 96, 96), seed=3).light_field
+    np.save(tmp_path / "scene.npy", lf)
+    a, b = str(tmp_path / "a.npz"), str(tmp_path / "b.npz")
+    assert main(["detect", str(tmp_path / "scene.npy"), "--out", a]) == 0
+    assert main(["detect", str(tmp_path / "scene.npy"), "--out", b]) == 0
+    return a, b, str(tmp_path / "scene.npy")
+
+
+@pytest.mark.parametrize("command, flags, named", [
+    (["match"], ["--contrast-threshold", "0.01", "--lenslet", "14"],
+     "--lenslet, --contrast-threshold"),
+    (["pose", "--camera", "300", "0.04", "47.5", "47.5"],
+     ["--contrast-threshold", "0.01", "--key", "x"], "--key, --contrast-threshold"),
+    (["colmap", "--database", "{tmp}/d.db", "--image-dir", "{tmp}/i"],
+     ["--contrast-threshold", "0.01"], "--contrast-threshold"),
+    (["match"], ["--preprocess", "--first-slope", "-1"], "--first-slope, --preprocess"),
+    (["match"], ["--bit-depth", "12"], "--bit-depth"),
+])
+def test_options_for_light_fields_are_refused_when_the_inputs_are_feature_files(
+        tmp_path, capsys, command, flags, named):
+    """Break test 5: liff pose/match/colmap on two feature files took --contrast-threshold,
+    --key, --lenslet and ran on the stored features, exit 0. With light-field inputs an
+    option no input takes is an error; so it is here, naming the flags."""
+    a, b, _ = feature_files(tmp_path)
+    capsys.readouterr()
+    args = [word.replace("{tmp}", str(tmp_path)) for word in command] + [a, b] + flags
+    assert main(args) == 1
+    err = capsys.readouterr().err
+    assert (f"liff {command[0]}: option(s) {named} do not apply: the inputs are feature files "
+            f"({a}, {b}), whose features are used as stored") in err, err
+    assert not (tmp_path / "d.db").exists()
+
+
+def test_options_for_light_fields_apply_when_one_input_is_a_light_field(tmp_path, capsys):
+    """A feature file and a light field: the detector's options apply to the light field;
+    a reader option that fits neither is named, with the feature file counted."""
+    a, _, scene = feature_files(tmp_path)
+    capsys.readouterr()
+    assert main(["match", a, scene, "--contrast-threshold", "0.02"]) == 0
+    assert main(["match", a, scene, "--lenslet", "14"]) == 1
+    assert ("option(s) --lenslet do not apply to format 'npy' of any input (and 1 feature "
+            "file(s), whose features are used as stored)") in capsys.readouterr().err
+

@@ -229,7 +229,8 @@ def number(value: float, fmt: str) -> str:
 
 
 def run_colmap(args: argparse.Namespace) -> int:
-    common.expand_args(args, common.reader_options(args), features=True)
+    common.expand_args(args, common.reader_options(args), features=True,
+                       light_field_flags=common.light_field_flags(args))
     return 1 if write(args, args.database, args.image_dir) else 0
 
 
@@ -238,7 +239,8 @@ def run_sfm(args: argparse.Namespace) -> int:
     # says how to install it
     from .. import colmap
 
-    common.expand_args(args, common.reader_options(args), features=True)
+    common.expand_args(args, common.reader_options(args), features=True,
+                       light_field_flags=common.light_field_flags(args))
     if len(args.paths) < 2:
         raise ValueError(f"{len(args.paths)} input; expected light fields of at least 2 camera "
                          "poses for structure from motion")

@@ -8,7 +8,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
-from typing import Optional, Sequence
+from typing import List, Optional, Sequence
 
 import numpy as np
 
@@ -109,6 +109,15 @@ def detector_parameters(args: argparse.Namespace, given_only: bool = False) -> d
     given is its default, or None with ``given_only`` (for :func:`slope_range`)."""
     values = {p.name: getattr(args, p.name) for p in PARAMETERS}
     return values if given_only else with_defaults(values)
+
+
+def light_field_flags(args: argparse.Namespace) -> List[str]:
+    """The flags given that apply to light fields only: the detector's whose value is not
+    its default, and ``--preprocess``; named in the error when every input is a feature
+    file (:func:`liff._inputs.resolve_options`)."""
+    flags = [option_name(p.name) for p in PARAMETERS
+             if getattr(args, p.name) != (None if p.name in SLOPE_BOUNDS else p.default)]
+    return flags + (["--preprocess"] if getattr(args, "preprocess", False) else [])
 
 
 def load_light_field(path: str, options: dict, preprocess: bool) -> np.ndarray:

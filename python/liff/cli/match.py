@@ -121,7 +121,8 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         refuse_inputs([args.plot], [args.a, args.b], "--plot")
     check_hloc_options(args)
-    options_a, options_b = common.input_options([args.a, args.b], args)
+    options_a, options_b = common.input_options([args.a, args.b], args,
+                                                  common.light_field_flags(args))
     fa, fb = features_of(args.a, options_a, args), features_of(args.b, options_b, args)
     matches = ratio_matches(fa.descriptors, fb.descriptors, args.ratio)
     result = verify(fa.keypoints, fb.keypoints, matches, args.model, args.threshold)

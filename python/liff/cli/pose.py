@@ -102,7 +102,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"no camera calibration for {' and '.join(without)}: give --camera F B "
                          "CX CY (and --focus-distance), --camera-file, --hci or --lftoolbox, or "
                          "inputs that carry one (HCI scenes with the camera in parameters.cfg)")
-    options_a, options_b = common.input_options([args.a, args.b], args)
+    options_a, options_b = common.input_options([args.a, args.b], args,
+                                                  common.light_field_flags(args))
     fa, camera_a = features_and_camera(args.a, options_a, args, calibration)
     fb, camera_b = features_and_camera(args.b, options_b, args, calibration)
     if camera is not None:

@@ -113,6 +113,10 @@ def folder_format(folder: str, names: Sequence[str], format: Optional[str] = Non
     return None
 
 
+#: the ``why`` of an entry that is a feature file of ``liff detect`` (features=True)
+FEATURE_FILE = "liff feature file"
+
+
 def classify(path: str, format: Optional[str] = None, in_views: bool = False,
              features: bool = False) -> Entry:
     """What the file ``path`` is: an input of some format, or not an input (and why).
@@ -122,7 +126,7 @@ def classify(path: str, format: Optional[str] = None, in_views: bool = False,
     if any(fnmatch.fnmatchcase(name, pattern) for pattern in SIDECARS):
         return _not_input(path, "written by liff beside its outputs (ground truth, manifest)")
     if features and name.endswith(".npz") and special_kind(path) is None and is_feature_file(path):
-        return Entry(path, None, "liff feature file")
+        return Entry(path, None, FEATURE_FILE)
     by_name = next((f for f in FORMATS.values() if not f.folder and f.recognises(path)), None)
     image = name.endswith(IMAGE_SUFFIXES)
     if format is not None:

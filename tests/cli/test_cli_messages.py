@@ -199,3 +199,27 @@ def test_options_for_light_fields_apply_when_one_input_is_a_light_field(tmp_path
     assert ("option(s) --lenslet do not apply to format 'npy' of any input (and 1 feature "
             "file(s), whose features are used as stored)") in capsys.readouterr().err
 
+
+@pytest.mark.parametrize("flag, value, expected", [
+    ("--keep-views", "0", "expected a whole number K >= 1 of centre views to keep on each axis"),
+    ("--keep-views", "-1", "expected a whole number K >= 1 of centre views to keep on each axis"),
+    ("--keep-views", "2.5", "expected a whole number K >= 1 of centre views to keep on each axis"),
+    ("--bit-depth", "0", "expected a whole number of bits B from 1 to 16"),
+    ("--bit-depth", "17", "expected a whole number of bits B from 1 to 16"),
+])
+def test_keep_views_and_bit_depth_are_checked_when_parsed(tmp_path, capsys, flag, value, expected):
+    """Break test 5: --keep-views 0 and --bit-depth 17 passed parsing and --dry-run, and
+    the run failed every input with 'centre_views: --keep-views (0, 0): T = 0'. Refused
+    as --lenslet 0 is, naming the flag, the value and what is expected, on the command
+    line and on a --from-list line."""
+    image = eslf_image(tmp_path / "a.eslf.png")
+    with pytest.raises(SystemExit) as exit_:
+        main(["detect", str(image), flag, value, "--out", str(tmp_path / "f"), "--dry-run"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument {flag}: {value}; {expected}" in err and "centre_views" not in err
+    todo = tmp_path / "todo.txt"
+    todo.write_text(f"{image} {flag} {value}\n")
+    assert main(["detect", "--from-list", str(todo), "--out", str(tmp_path / "f"), "--dry-run"]) == 1
+    assert f"{todo}, line 1: argument {flag}: {value}; {expected}" in capsys.readouterr().err
+    assert not (tmp_path / "f").exists()

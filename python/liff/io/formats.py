@@ -84,6 +84,39 @@ def lenslet_size(text: str) -> int:
     return n
 
 
+def views_kept(text: str) -> int:
+    """``--keep-views``' type: a whole number >= 1 of centre views kept on each axis
+    (argparse.ArgumentTypeError naming the value and what was expected)."""
+    import argparse
+
+    try:
+        k = int(text)
+    except ValueError:
+        k = None
+    if k is None or k < 1:
+        raise argparse.ArgumentTypeError(
+            f"{text}; expected a whole number K >= 1 of centre views to keep on each axis, "
+            "e.g. 11 of a Lytro's 14")
+    return k
+
+
+def bits(text: str) -> int:
+    """``--bit-depth``'s type: a whole number of bits from 1 to 16, as
+    :func:`liff.io.scale_bit_depth` takes (argparse.ArgumentTypeError naming the value
+    and what was expected)."""
+    import argparse
+
+    try:
+        b = int(text)
+    except ValueError:
+        b = None
+    if b is None or not 1 <= b <= 16:
+        raise argparse.ArgumentTypeError(
+            f"{text}; expected a whole number of bits B from 1 to 16 (at most 8 for 8-bit "
+            "images), e.g. 12 for 12-bit sensor data in 16-bit files")
+    return b
+
+
 #: every reader option, by keyword; ``bit_depth`` applies to every format
 OPTIONS: Dict[str, ReaderOption] = {o.keyword: o for o in (
     ReaderOption("grid", "--grid", "view grid (T, S): required for a mosaic; for views, the "
@@ -93,14 +126,14 @@ OPTIONS: Dict[str, ReaderOption] = {o.keyword: o for o in (
                  "image; 14 in the Stanford Lytro archive, 15 from the Light Field Toolbox)",
                  "N", lenslet_size),
     ReaderOption("keep", "--keep-views", "ESLF: keep the centre K x K views (e.g. 11 of a "
-                 "Lytro's 14)", "K", int),
+                 "Lytro's 14)", "K", views_kept),
     ReaderOption("pattern", "--pattern", "views: regex with named groups t and s (or index) "
                  "for the file names", "REGEX"),
     ReaderOption("key", "--key", "the array, variable or dataset holding the light field",
                  "NAME"),
     ReaderOption("bit_depth", "--bit-depth", "the values are B-bit (e.g. 10 or 12 for sensor "
                  "data in 16-bit files, 8 for floats in 0..255): rescale them to the dtype's "
-                 "range", "B", int),
+                 "range", "B", bits),
 )}
 #: options every format takes (applied after reading)
 COMMON_OPTIONS = ("bit_depth",)

@@ -37,8 +37,8 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
     progress bar on stderr (see :func:`progress`). A job that raises is reported as
     ``liff <command>: <label>: <error>`` and the rest go on; ``done(result)`` is called
     with each job's result as it comes (e.g. to write a manifest as the run goes).
-    The progress names each job that finished (``label``), unless it raised or
-    ``failed(result)``: its error line names it.
+    The progress names each job that finished (``label``), and counts those that raised
+    or ``failed(result)`` apart from those done.
 
     Returns (results in job order, None for failures; number of failures).
     """
@@ -58,10 +58,10 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
             results[i] = result()
             if done:
                 done(results[i])
-            finished(progress, None if failed(results[i]) else label(jobs[i]))
+            finished(progress, label(jobs[i]), failed=failed(results[i]))
         except (ValueError, OSError, MemoryError) as error:
             report(i, error)
-            finished(progress, None)
+            finished(progress, label(jobs[i]), failed=True)
 
     if workers <= 1 or len(jobs) <= 1:
         for i, job in enumerate(jobs):
@@ -85,13 +85,21 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
     return results, failures
 
 
-def finished(bar, item: Optional[str]) -> None:
-    """Counts an input done on the progress ``bar`` (None: no bar), naming ``item``: tqdm's
-    postfix, the log line's ``last ITEM``; None for one that failed, which its error line
-    names already."""
-    if bar is not None:
+def finished(bar, item: str, failed: bool = False) -> None:
+    """Counts the input ``item`` finished on the progress ``bar`` (None: no bar): done,
+    named as tqdm's postfix and the log line's ``last ITEM``; or ``failed``, said apart
+    from those done and named (``K failed: ITEM``; tqdm: its postfix)."""
+    if bar is None:
+        return
+    if failed and hasattr(bar, "fail"):  # (LineProgress)
+        bar.fail(item)
+        return
+    if failed:
+        bar.liff_failed = getattr(bar, "liff_failed", 0) + 1
+        bar.set_postfix_str(f"{bar.liff_failed} failed: {item}", refresh=False)
+    else:
         bar.set_postfix_str(item or "", refresh=False)
-        bar.update()
+    bar.update()
 
 
 def _set_threads(threads: int) -> None:

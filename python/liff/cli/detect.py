@@ -84,7 +84,7 @@ def run_tasks(tasks: List[batch.Task], args: argparse.Namespace,
             bar.write(failure_line(outcome), file=sys.stderr)
         if done:
             done(outcome)
-        common.finished(bar, None if outcome.error else outcome.input)
+        common.finished(bar, outcome.input, failed=bool(outcome.error))
 
     if args.scheduler:
         with common.progress(desc="liff detect", total=len(tasks)) as bar:

@@ -182,6 +182,23 @@ def observations(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
     return np.column_stack([xy, slopes])
 
 
+def _focus_hint(camera1: LightFieldCamera, camera2: LightFieldCamera, o1: np.ndarray,
+                o2: np.ndarray) -> str:
+    """When a camera focused at infinity leaves most matches without a depth: slopes <= 0
+    are at or beyond infinity only if the focus distance really is infinite, so say that
+    it may be missing ("" otherwise)."""
+    at_infinity = [(camera, obs) for camera, obs in ((camera1, o1), (camera2, o2))
+                   if np.isinf(camera.focus_distance)]
+    if not at_infinity or not len(o1):
+        return ""
+    beyond = max(int(np.sum(obs[:, 2] <= 0)) for _, obs in at_infinity)
+    if 2 * beyond < len(o1):
+        return ""
+    return (f"; {beyond} of the matches have slopes <= 0, at or beyond infinity for a camera "
+            "focused at infinity (focus_distance = inf): if the captures were focused nearer, "
+            "as lenslet cameras are, give the focus distance (--focus-distance M with --camera)")
+
+
 def _back_project(camera: LightFieldCamera, obs: np.ndarray) -> np.ndarray:
     """3-D points (N, 3) of observations (x, y, slope); NaN at or beyond infinity."""
     return camera.back_project(obs[:, :2], camera.depth(obs[:, 2]))
@@ -827,7 +844,8 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
     finite = np.isfinite(X1).all(axis=1) & np.isfinite(X2).all(axis=1)
     if finite.sum() < MIN_MATCHES:
         raise PoseEstimationError(f"{int(finite.sum())} putative matches with a depth in both "
-                                  f"captures (of {len(matches)}); expected at least {MIN_MATCHES}")
+                                  f"captures (of {len(matches)}); expected at least {MIN_MATCHES}"
+                                  + _focus_hint(camera1, camera2, o1, o2))
     threshold = 0.03 * float(np.median(np.concatenate([X1[finite, 2], X2[finite, 2]])))
     try:  # a 3-D RANSAC as COLMAP's: one more hypothesis for the scoring in observations
         seeds = [ransac_pose(X1[finite], X2[finite], threshold, seed)[:2]]

@@ -806,4 +806,26 @@ def test_cli_pose_warns_of_few_inliers_and_refuses_a_folder_out(tmp_path, capsys
     assert main(["pose", "arc/pose00.npz", "arc/pose01.npz", *camera]) == 0
     out, err = capsys.readouterr()
     inliers = int(re.search(r"(\d+) inlier matches", out)[1])
-    assert inliers < 15 and f"warning: {inliers} inlier matches are too few" in err
+    assert inliers < 15 and f"liff pose: warning: {inliers} inlier matches are too few" in err
+
+
+def test_cli_pose_without_the_focus_distance_hints_at_it(tmp_path, capsys, monkeypatch):
+    """Break test 5: --camera F B CX CY without --focus-distance on a scene of slopes
+    below 0 (liff synth poses, focused at 5.09 m) said '0 putative matches with a depth
+    in both captures (of 54)' and no more; the error says the focus distance may be
+    missing."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["synth", "poses", "--out", "arc", "--views", "5", "--size", "96", "128",
+                 "--poses", "2", "--quiet"]) == 0
+    truth = json.loads(Path("arc.truth.json").read_text())
+    k = truth["intrinsics"]
+    camera = ["--camera", str(k["focal"]), str(truth["baseline"]), str(k["cx"]), str(k["cy"])]
+    capsys.readouterr()
+    assert main(["pose", "arc/pose00.npz", "arc/pose01.npz", *camera]) == 1
+    err = capsys.readouterr().err
+    assert re.search(r"liff pose: \d+ putative matches with a depth in both captures \(of \d+\); "
+                     r"expected at least \d+; \d+ of the matches have slopes <= 0, at or beyond "
+                     r"infinity for a camera focused at infinity", err), err
+    assert "give the focus distance (--focus-distance M with --camera)" in err
+    assert main(["pose", "arc/pose00.npz", "arc/pose01.npz", *camera,
+                 "--focus-distance", str(truth["focus_depth"])]) == 0

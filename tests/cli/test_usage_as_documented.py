@@ -164,7 +164,7 @@ def test_match_warns_when_inliers_mean_nothing(poses, tmp_path, capsys):
     assert main(["match", str(tmp_path / "p0" / "pose00.npz"), str(other / "pose00.npz"),
                  "--ratio", "0.95"]) == 0
     out, err = capsys.readouterr()
-    assert "inliers (homography, 3 px): 7" in out and "warning: 7 inliers are too few" in err
+    assert "inliers (homography, 3 px): 7" in out and "liff match: warning: 7 inliers are too few" in err
     assert main(["match", str(tmp_path / "p0" / "pose00.npz"), str(tmp_path / "p0" / "pose01.npz")]) == 0
     out, err = capsys.readouterr()
     assert int(re.search(r"inliers \(homography, 3 px\): (\d+)", out).group(1)) > 100

@@ -131,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
           f"{result.inlier_count}" + many_to_one(matches, result.inliers, args.a, args.b))
     chance = chance_inliers(fa.keypoints, fb.keypoints, matches, args.model, args.threshold)
     if result.inlier_count < max(MIN_INLIERS, CHANCE_FACTOR * chance):
-        print(f"warning: {result.inlier_count} inliers are too few to show that the two share a "
+        print(f"liff match: warning: {result.inlier_count} inliers are too few to show that the two share a "
               f"scene (expected at least {MIN_INLIERS}, and {CHANCE_FACTOR}x the {chance} that "
               "RANSAC keeps among randomly re-paired matches)", file=sys.stderr)
     if args.hloc:

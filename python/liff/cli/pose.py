@@ -121,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
           f"{np.linalg.norm(t):.6g} m; rotation {angle:.4f} deg")
     print("centre of B in A's frame: " + np.array2string(-R.T @ t, precision=6, suppress_small=True) + " m")
     if len(matches) < MIN_INLIERS:
-        print(f"warning: {len(matches)} inlier matches are too few to trust this pose (expected "
+        print(f"liff pose: warning: {len(matches)} inlier matches are too few to trust this pose (expected "
               f"at least {MIN_INLIERS}, as liff match and COLMAP's two-view verification)",
               file=sys.stderr)
     if args.out:

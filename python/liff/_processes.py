@@ -87,16 +87,16 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
 
 def finished(bar, item: str, failed: bool = False) -> None:
     """Counts the input ``item`` finished on the progress ``bar`` (None: no bar): done,
-    named as tqdm's postfix and the log line's ``last ITEM``; or ``failed``, said apart
-    from those done and named (``K failed: ITEM``; tqdm: its postfix)."""
+    named as tqdm's postfix and the log line's ``last ITEM``; or ``failed``, counted
+    apart from those done (``K failed``), not named again (its error line names it)."""
     if bar is None:
         return
     if failed and hasattr(bar, "fail"):  # (LineProgress)
-        bar.fail(item)
+        bar.fail()
         return
     if failed:
         bar.liff_failed = getattr(bar, "liff_failed", 0) + 1
-        bar.set_postfix_str(f"{bar.liff_failed} failed: {item}", refresh=False)
+        bar.set_postfix_str(f"{bar.liff_failed} failed", refresh=False)
     else:
         bar.set_postfix_str(item or "", refresh=False)
     bar.update()

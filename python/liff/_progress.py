@@ -60,8 +60,8 @@ class LineProgress:
     """tqdm's interface as we use it (iteration, ``update``, ``set_postfix_str``,
     ``write``, a context manager), printed as lines for a log: ``DESC: N/TOTAL UNIT(s)
     done, last ITEM, S s``, ITEM the postfix set (the input that finished); inputs that
-    failed (:meth:`fail`) are not counted done but said apart: ``..., K failed, S s``,
-    and the line for one names it (``K failed: ITEM``)."""
+    failed (:meth:`fail`) are not counted done but said apart: ``..., K failed, S s``
+    (their error lines name them)."""
 
     def __init__(self, iterable: Optional[Iterable] = None, desc: str = "liff",
                  total: Optional[int] = None, unit: str = "file"):
@@ -70,18 +70,16 @@ class LineProgress:
             total = len(iterable)
         self.desc, self.total, self.unit, self.n = desc, total, unit, 0
         self.item: Optional[str] = None
-        self.failed, self.failed_item = 0, None  # (failed_item: named in the next line only)
+        self.failed = 0
         self.start = time.monotonic()
         self._heartbeat = _Heartbeat(lambda: self._line(", still working"))
 
     def _line(self, note: str = "") -> None:
         total = f"/{self.total}" if self.total is not None else ""
         last = f", last {self.item}" if self.item else ""
-        failed = (f", {self.failed} failed" + (f": {self.failed_item}" if self.failed_item else "")
-                  if self.failed else "")
+        failed = f", {self.failed} failed" if self.failed else ""
         print(f"{self.desc}: {self.n - self.failed}{total} {self.unit}(s) done{last}{failed}, "
               f"{time.monotonic() - self.start:.0f} s{note}", file=sys.stderr, flush=True)
-        self.failed_item = None
 
     def set_postfix_str(self, s: str = "", refresh: bool = True) -> None:
         """What finished last (tqdm's postfix): named in the next line."""
@@ -97,11 +95,12 @@ class LineProgress:
                 self._line()
                 self._heartbeat.last = now
 
-    def fail(self, item: str) -> None:
-        """One input finished by failing: counted apart from those done, named."""
+    def fail(self) -> None:
+        """One input finished by failing: counted apart from those done (its error line
+        names it; the progress line does not name it again)."""
         with self._heartbeat.lock:
             self.failed += 1
-            self.failed_item = item
+            self.item = None
         self.update()
 
     def write(self, text: str, file=None) -> None:

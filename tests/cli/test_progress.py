@@ -83,17 +83,19 @@ def test_a_finished_inputs_line_names_it(tmp_path, capsys, two_inputs):
         assert sorted(m.group(2) for m in named) == sorted(two_inputs)
 
 
-def test_a_failed_input_is_counted_apart_and_named(tmp_path, capsys, two_inputs):
-    """Break test 5: 'liff detect: 1/4 file(s) done, 1 s' counted a failed input done
-    without naming it; its line says it failed and names it, later lines keep the count."""
+def test_a_failed_input_is_counted_apart_not_done(tmp_path, capsys, two_inputs):
+    """Break test 5: 'liff detect: 1/4 file(s) done, 1 s' counted a failed input done;
+    the progress lines count it apart ('1 failed'); its error line names it (once)."""
     broken = tmp_path / "broken.npy"
     broken.write_bytes(b"not numpy")
     for workers in ("1", "2"):
         assert main(["detect", str(broken), *two_inputs, "--out", str(tmp_path / f"out{workers}"),
                      "--workers", workers]) == 1
-        lines = [line for line in capsys.readouterr().err.splitlines() if "file(s) done" in line]
+        err = capsys.readouterr().err
+        lines = [line for line in err.splitlines() if "file(s) done" in line]
         assert len(lines) == 3 and lines[-1].startswith("liff detect: 2/3 file(s) done, last ")
         assert lines[-1].endswith(" s") and ", 1 failed, " in lines[-1]
-        (failing,) = [line for line in lines if f"1 failed: {broken}, " in line]
+        failing = next(line for line in lines if ", 1 failed, " in line)
         done = int(re.match(r"liff detect: (\d)/3 file\(s\) done", failing).group(1))
         assert done == lines.index(failing)  # the failed input is not counted done
+        assert err.count(str(broken)) == 1 and f"liff detect: {broken}: " in err

@@ -11,7 +11,7 @@ targets (fuzz/readers.py) and the folder walk (:mod:`liff.io.layout`).
 
 Adding a reader is one module (its ``read_*`` function returning a
 :class:`~liff.io.LightFieldFile`) plus one :class:`InputFormat` entry here;
-tests/test_input_registry.py fails for a reader module that has none.
+tests/io/test_format_registry.py fails for a reader module that has none.
 """
 
 from __future__ import annotations

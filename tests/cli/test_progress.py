@@ -81,3 +81,26 @@ def test_a_finished_inputs_line_names_it(tmp_path, capsys, two_inputs):
                  for line in lines]
         assert all(named) and [m.group(1) for m in named] == ["1", "2"]
         assert sorted(m.group(2) for m in named) == sorted(two_inputs)
+
+
+def test_a_batch_that_raises_leaves_no_heartbeat_behind(monkeypatch):
+    """A run that ends in an error nobody catches (or Ctrl-C) closes its progress line:
+    an open one kept printing "still working" from its thread for the life of the
+    process (seen in a later test's output)."""
+    import threading
+
+    from liff import _processes
+    from liff._progress import HEARTBEAT_THREAD
+
+    monkeypatch.delenv("LIFF_PROGRESS", raising=False)
+
+    def fails(x):
+        raise RuntimeError(f"job {x} broke")
+
+    def heartbeats():
+        return [t for t in threading.enumerate() if t.name == HEARTBEAT_THREAD]
+
+    before = len(heartbeats())
+    with pytest.raises(RuntimeError, match="job 0 broke"):
+        _processes.run_batch(fails, [(0,), (1,)], 1, "test", label=lambda job: str(job[0]))
+    assert len(heartbeats()) == before

@@ -38,10 +38,10 @@ from typing import Dict, List, Optional, Sequence, Tuple, Union
 import cv2
 import numpy as np
 
-from . import plot, preprocess
-from .io.images import IMAGE_SUFFIXES, write_image
-from .outputs import atomic_output
-from .pose_graph import MIN_SIGMA_ROTATION, MIN_SIGMA_TRANSLATION, PairMeasurement, absolute_poses
+from .. import plot, preprocess
+from ..io.images import IMAGE_SUFFIXES, write_image
+from ..outputs import atomic_output
+from ..pose_graph import MIN_SIGMA_ROTATION, MIN_SIGMA_TRANSLATION, PairMeasurement, absolute_poses
 
 try:
     import pycolmap
@@ -416,7 +416,7 @@ class PairPose:
     @property
     def translation_sigma(self) -> float:
         """Standard deviation of ``|translation|``, metres."""
-        from .pose import translation_length_sigma
+        from ..pose import translation_length_sigma
 
         return translation_length_sigma(self.translation, self.covariance)
 
@@ -484,9 +484,9 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
         database's, names repeat, the database already holds matches, the seed is
         outside [0, 2**31), or ``workers`` is not a positive integer.
     """
-    from ._pairs import pair_poses
-    from .keypoint_rows import keypoint_slopes, keypoints_to_rows
-    from .pose import _check_seed
+    from .._pairs import pair_poses
+    from ..keypoint_rows import keypoint_slopes, keypoints_to_rows
+    from ..pose import _check_seed
 
     _check_seed(seed)
     if isinstance(workers, (bool, np.bool_)) or not isinstance(workers, (int, np.integer)) or workers < 1:
@@ -949,7 +949,7 @@ def metric_scale(reconstruction: "pycolmap.Reconstruction", slopes: Dict[str, np
         with a positive depth and no usable pair), or the slopes put the model at or
         beyond infinity.
     """
-    from .camera import LightFieldCamera
+    from ..camera import LightFieldCamera
 
     if not isinstance(slopes, dict):
         raise ValueError(f"slopes is a {type(slopes).__name__}; expected a dict of image name to "

@@ -33,3 +33,10 @@ def test_public_names_are_kept(module, names):
     assert not missing, f"{module} lost {missing}"
     for name in names:  # and ``from module import name`` works as ``module.name`` does
         assert getattr(importlib.import_module(module), name) is getattr(imported, name)
+
+
+def test_colmap_all_is_its_public_names():
+    """``from liff.colmap import *`` gives what the module gave (its own names only)."""
+    import liff.colmap
+
+    assert sorted(liff.colmap.__all__) == sorted(COLMAP_NAMES)

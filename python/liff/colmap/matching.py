@@ -154,9 +154,9 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
     """
     from .._pairs import pair_poses
     from ..keypoint_rows import keypoint_slopes, keypoints_to_rows
-    from ..pose import _check_seed
+    from ..pose import check_seed
 
-    _check_seed(seed)
+    check_seed(seed)
     if isinstance(workers, (bool, np.bool_)) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ValueError(f"workers = {workers!r}; expected a positive integer")
     names = [im.name for im in images]

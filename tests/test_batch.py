@@ -284,7 +284,7 @@ def test_an_unreadable_sub_folder_is_skipped_with_a_warning(tmp_path, monkeypatc
     monkeypatch.setattr(common.os, "scandir", refusing)
     with pytest.warns(LiffWarning, match="locked: cannot list the folder.*skipped"):
         assert common.expand_inputs([str(tmp_path / "data")], {}) == paths
-    assert common._glob(str(tmp_path / "data" / "a**" / "*.npy")) == paths  # (** in a name: *)
+    assert common.glob_paths(str(tmp_path / "data" / "a**" / "*.npy")) == paths  # (** in a name: *)
 
 
 def test_batch_detect_takes_one_path_and_refuses_bad_arguments_up_front(tmp_path):

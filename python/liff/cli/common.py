@@ -312,8 +312,10 @@ def shown_options(options: dict) -> str:
     return " ".join(OPTIONS[k].shown(v) for k, v in options.items() if k in OPTIONS)
 
 
-def _glob(pattern: str) -> List[str]:
-    """``glob.glob(pattern, recursive=True)``, sorted, except that ``**`` does not descend
+def glob_paths(pattern: str) -> List[str]:
+    """The paths a glob pattern given as an input matches (:mod:`liff.cli.inputs`).
+
+    ``glob.glob(pattern, recursive=True)``, sorted, except that ``**`` does not descend
     into symbolic links to folders (glob's does, and a link back up makes it loop, for
     ever with two such links): ``**`` goes through pathlib, which does not follow them.
     As with glob, hidden names match only a pattern with a part starting with '.'."""

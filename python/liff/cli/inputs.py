@@ -122,7 +122,7 @@ def expand(paths: Sequence[str], options: dict, from_list: Optional[str] = None,
         pattern = listed.get("pattern", options.get("pattern"))
         globbed = not os.path.exists(path) and glob.has_magic(path)
         if globbed:
-            matches = common._glob(path)
+            matches = common.glob_paths(path)
             if not matches:
                 raise ValueError(f"{path}: no file matches the pattern; expected light fields")
         else:

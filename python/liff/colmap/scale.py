@@ -12,7 +12,6 @@ import pycolmap
 
 from .matching import PairPose, posed_pairs
 
-
 #: metric_scale: a pair's baseline counts only when its relative standard deviation
 #: (PairPose.translation_sigma / |t|) is below this; panoramic pairs have none
 MAX_BASELINE_RELATIVE_SIGMA = 0.25

@@ -204,8 +204,10 @@ def _mahalanobis(entries, u: np.ndarray) -> np.ndarray:
     return q / det
 
 
-def _information(C: np.ndarray) -> np.ndarray:
-    """Inverse (m, 3, 3) of symmetric positive definite matrices from the adjugate."""
+def inverse_spd3(C: np.ndarray) -> np.ndarray:
+    """Inverses of (m, 3, 3) symmetric positive definite matrices, from the adjugate over
+    the determinant (vectorised; no check of definiteness): a covariance's information
+    here, and the bundle adjustment's point blocks (:mod:`liff._bundle`)."""
     a, b, c = C[:, 0, 0], C[:, 0, 1], C[:, 0, 2]
     d, e, f = C[:, 1, 1], C[:, 1, 2], C[:, 2, 2]
     A = np.empty_like(C)
@@ -433,7 +435,7 @@ class TransferScorer:
         J, _, _, _ = self._jacobian_and_error(R, t, h, i, p)
         C = self._whitened_covariance(J)
         scale = 1.0 / self.sd2[i]
-        info = _information(C) * scale[:, :, None] * scale[:, None, :]  # C^-1 in capture 2's units
+        info = inverse_spd3(C) * scale[:, :, None] * scale[:, None, :]  # C^-1 in capture 2's units
         bad = np.bincount(h, weights=~np.isfinite(info).all(axis=(1, 2)), minlength=H) > 0
         keep = ~bad[h]
         h, i, info = h[keep], i[keep], info[keep]

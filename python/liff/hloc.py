@@ -45,7 +45,7 @@ import cv2
 import numpy as np
 
 from .colmap import grey_uint8_image, keypoints_to_colmap
-from .feature_file import content_digest
+from .feature_file import content_digest, load_features
 from .io.images import write_image
 from .keypoint_rows import keypoint_slopes
 from .outputs import atomic_output
@@ -667,8 +667,6 @@ def add_feature_files(path: "os.PathLike", feature_paths: Sequence["os.PathLike"
         is written then.
     """
     import h5py
-
-    from .feature_file import load_features
 
     names = check_export(path, feature_paths, image_dir, overwrite)
     groups = []

@@ -168,8 +168,17 @@ def translation_length_sigma(translation: np.ndarray, covariance: np.ndarray) ->
     return float(np.sqrt(direction @ covariance[3:, 3:] @ direction))
 
 
-def _check_seed(seed) -> None:
-    """RANSAC seeds are what numpy and COLMAP both take: integers in [0, 2**31)."""
+def check_seed(seed) -> None:
+    """Checks a RANSAC seed: what numpy and COLMAP both take, an integer in [0, 2**31).
+
+    Every estimate here checks its seed with it, and so does
+    :func:`liff.colmap.match_by_pose`, before any pair is estimated.
+
+    Raises
+    ------
+    ValueError
+        For anything else (a bool, a float, a negative or too large integer), naming it.
+    """
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) \
             or not 0 <= seed < 2 ** 31:
         raise ValueError(f"seed = {seed!r}; expected an integer in [0, 2**31)")
@@ -558,7 +567,7 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
         re-paired at random (``RANSAC_CHANCE_TRIALS`` re-pairings): when every match is
         wrong, some motion still agrees with a few of them.
     """
-    _check_seed(seed)
+    check_seed(seed)
     obs1, obs2 = np.asarray(obs1, np.float64), np.asarray(obs2, np.float64)
     n = len(obs1)
     s = np.broadcast_to(np.asarray(sigma, np.float64), (n, 2))
@@ -729,7 +738,7 @@ def ransac_pose(points1: np.ndarray, points2: np.ndarray, max_error: float,
     ValueError
         For a seed outside [0, 2**31), or points :func:`robust_rigid_fit` refuses.
     """
-    _check_seed(seed)
+    check_seed(seed)
     if len(points1) < MIN_MATCHES:
         raise PoseEstimationError(f"{len(points1)} 3-D matches; expected at least {MIN_MATCHES}")
     R, t, inliers = robust_rigid_fit(points1, points2, max_error, np.random.default_rng(seed))
@@ -805,7 +814,7 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
     Model, assumptions and limits: docs/METRIC.md.
     """
     camera2 = camera1 if camera2 is None else camera2
-    _check_seed(seed)
+    check_seed(seed)
     for name, camera in (("camera1", camera1), ("camera2", camera2)):
         if not isinstance(camera, LightFieldCamera):
             raise ValueError(f"{name} is a {type(camera).__name__}; expected a liff.LightFieldCamera")

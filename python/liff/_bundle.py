@@ -79,7 +79,6 @@ def solve(problem, params0: np.ndarray, loss: str = "linear", f_scale: float = 3
     Result
     """
     x = np.array(params0, np.float64)
-    n = (len(x) - 6) // 3
     r = problem.residuals(x)
     cost, gradient_weight, weight = _loss(r * r, loss, f_scale)
     damping, factor, low, high = _DAMPING

@@ -12,9 +12,10 @@
   whose hypothesis :func:`liff.pose.estimate_relative_pose` scores as one more.
 
 Why not a library's robust estimator alone: OpenCV's ``estimateAffine3D`` and COLMAP's
-``estimate_rigid3d_robust`` (or :func:`robust_rigid_fit`) threshold residuals in metres, and a light field's depth noise grows
-as Z^2 / (f b) times its slope noise, so a 3-D threshold drops the right far matches or
-admits wrong near ones; these scores are in each capture's observations instead.
+``estimate_rigid3d_robust`` (or :func:`robust_rigid_fit`) threshold residuals in metres,
+and a light field's depth noise grows as Z^2 / (f b) times its slope noise, so a 3-D
+threshold drops the right far matches or admits wrong near ones; these scores are in each
+capture's observations instead.
 
 The model is :func:`liff.pose.refine_relative_pose`'s: a feature of capture 1 at pixel
 (x, y) with inverse depth w (from its slope) is the point whose direction is

@@ -27,9 +27,10 @@ import cv2
 import numpy as np
 
 from . import _bundle
-from ._rigid import TransferScorer, rigid_fits as _rigid_fits, robust_rigid_fit, sample_triples
+from ._rigid import TransferScorer, robust_rigid_fit, sample_triples
+from ._rigid import rigid_fits as _rigid_fits
 from .camera import LightFieldCamera, keypoint_geometry
-from .matching import size_mask, ratio_matches
+from .matching import ratio_matches, size_mask
 
 #: chi-square (3 degrees of freedom: 6 residuals, 3 point parameters) below which a
 #: match is an inlier of the refined pose; its 99.9% quantile.
@@ -464,7 +465,8 @@ def _transfer(obs1: np.ndarray, sigma1: np.ndarray, camera1: LightFieldCamera,
     Returns the predicted (x, y, slope) in capture 2, shape (..., n, 3) (NaN for points
     behind it), and the first-order covariance of that prediction from capture 1's
     noise ``sigma1`` (n, 2: position, slope) carried through the pixel and the inverse
-    depth w, shape (..., n, 3, 3), or None when ``covariance`` is False. The point is (x, y, w) in capture 1; capture 2 sees
+    depth w, shape (..., n, 3, 3), or None when ``covariance`` is False. The point is
+    (x, y, w) in capture 1; capture 2 sees
     ``p = R d + t w``, d = ((x - cx) / f, (y - cy) / f, 1) (the model of
     :func:`refine_relative_pose`).
     """

@@ -44,8 +44,7 @@ try:
 except ImportError as error:  # pragma: no cover - exercised only without the extra
     raise ImportError("liff.colmap needs pycolmap: pip install 'liff[sfm]'") from error
 
-from .conversions import (descriptors_to_colmap, grey_uint8_image, keypoints_to_colmap,
-                          prepare_light_field, root_sift)
+from .conversions import descriptors_to_colmap, grey_uint8_image, keypoints_to_colmap, prepare_light_field, root_sift
 from .database import FeatureImage, PathLike, colmap_log, describe_sizes, write_database
 from .mapping import SfmResult, mapper_options, reconstruct, reconstruct_from_poses
 from .matching import PANORAMIC_BASELINE, PairPose, match, match_by_pose, matching_options

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from typing import Dict, Optional, Tuple
+from typing import Dict, Optional, Tuple, cast
 
 import numpy as np
 import pycolmap
@@ -173,7 +173,8 @@ def reconstruct_from_poses(database_path: PathLike, image_dir: PathLike, out_dir
         keypoints = {name: db.read_keypoints(image.image_id)[:, :2] for name, image in images.items()}
     if not measurements:
         return SfmResult({}, num_images)
-    poses = absolute_poses(measurements)
+    # (keyed by the image names the measurements carry)
+    poses = cast(Dict[str, Tuple[np.ndarray, np.ndarray]], absolute_poses(measurements))
     model = pycolmap.Reconstruction()
     for camera_id in sorted({images[name].camera_id for name in poses}):
         model.add_camera_with_trivial_rig(cameras[camera_id])

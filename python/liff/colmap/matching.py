@@ -178,7 +178,7 @@ def match_by_pose(database_path: PathLike, images: Sequence[FeatureImage], camer
     # The poses first (in worker processes, without the database open), then the writes.
     features = [(keypoints_to_rows(im.keypoints), im.descriptors) for im in ordered]
     estimates = pair_poses(features, pairs, camera, ratio, seed, int(workers), progress)
-    poses = {}
+    poses: Dict[Tuple[str, str], Optional[PairPose]] = {}
     with colmap_log(), pycolmap.Database.open(require_database(database_path)) as db:
         for (a, b), estimate in zip(pairs, estimates):
             first, second = ordered[a], ordered[b]

@@ -5,7 +5,7 @@ SfM table (:func:`table_metrics`) and why each image left out of the model is
 from __future__ import annotations
 
 from itertools import combinations
-from typing import List, Optional, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 import pycolmap
@@ -50,8 +50,8 @@ def table_metrics(database_path: PathLike, result: Optional[SfmResult] = None) -
             pairs = db.read_matches(i, j) if db.exists_matches(i, j) else np.zeros((0, 2))
             good = (db.read_two_view_geometry(i, j).inlier_matches
                     if db.exists_two_view_geometry(i, j) else np.zeros((0, 2)))
-            for matches, used in ((pairs, putative_used), (good, inlier_used)):
-                matches = np.asarray(matches, dtype=np.int64).reshape(-1, 2)
+            for found, used in ((pairs, putative_used), (good, inlier_used)):
+                matches = np.asarray(found, dtype=np.int64).reshape(-1, 2)
                 used[i][matches[:, 0]] = True
                 used[j][matches[:, 1]] = True
             putative += len(pairs)
@@ -70,7 +70,8 @@ def table_metrics(database_path: PathLike, result: Optional[SfmResult] = None) -
         "precision": ratio(inliers, putative),
         "matching_score": ratio(sum(u.sum() for u in inlier_used.values()), n_keypoints),
         "points3D": best.num_points3D() if best is not None else 0,
-        "track_length": best.compute_mean_track_length() if has_points else float("nan"),
+        "track_length": (best.compute_mean_track_length() if has_points and best is not None
+                         else float("nan")),
     }
 
 
@@ -112,8 +113,8 @@ def left_out_images(database_path: PathLike, result: Optional[SfmResult] = None)
     with pycolmap.Database.open(require_database(database_path)) as db:
         images = {im.image_id: im.name for im in db.read_all_images()}
         keypoints = {i: db.num_keypoints_for_image(i) for i in images}
-        matched = {i: {} for i in images}   # image id -> {other name: putative matches}
-        verified = {i: {} for i in images}  # image id -> {other name: inlier matches}
+        matched: Dict[int, Dict[str, int]] = {i: {} for i in images}   # image id -> {other name: putative matches}
+        verified: Dict[int, Dict[str, int]] = {i: {} for i in images}  # image id -> {other name: inlier matches}
         for i, j in combinations(sorted(images), 2):
             putative = db.read_matches(i, j).shape[0] if db.exists_matches(i, j) else 0
             inliers = (db.read_two_view_geometry(i, j).inlier_matches.shape[0]

@@ -197,11 +197,12 @@ def _scale_from_baselines(reconstruction, pair_poses) -> Tuple[float, int, float
     if not scales:
         return np.nan, 0, np.nan
     order = np.argsort(scales)
-    scales, weights = np.asarray(scales)[order], np.asarray(weights)[order]
-    cumulative = np.cumsum(weights)
-    median = float(scales[np.searchsorted(cumulative, 0.5 * cumulative[-1])])
-    spread = 1.4826 * float(np.median(np.abs(scales / median - 1))) if len(scales) >= 2 else np.nan
-    return median, len(scales), spread
+    sorted_scales, sorted_weights = np.asarray(scales)[order], np.asarray(weights)[order]
+    cumulative = np.cumsum(sorted_weights)
+    median = float(sorted_scales[np.searchsorted(cumulative, 0.5 * cumulative[-1])])
+    spread = (1.4826 * float(np.median(np.abs(sorted_scales / median - 1)))
+              if len(sorted_scales) >= 2 else np.nan)
+    return median, len(sorted_scales), spread
 
 
 def scale_reconstruction(reconstruction: "pycolmap.Reconstruction", scale: float) -> None:

@@ -25,7 +25,8 @@ from .eslf import read_eslf
 from .hci import is_hci_scene, read_hci_light_field
 from .hdf5 import dataset_shapes, read_hdf5
 from .images import IMAGE_SUFFIXES
-from .mat import holds_light_field as mat_holds_light_field, read_mat
+from .mat import holds_light_field as mat_holds_light_field
+from .mat import read_mat
 from .mosaic import read_mosaic
 from .numpy_files import read_numpy, stored_shapes
 from .views import read_views, view_names

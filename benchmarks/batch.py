@@ -20,8 +20,9 @@ against numpy's savez_compressed of the same arrays; and the processor time and 
 faults of detections in one process with the core's working memory kept between calls
 (the default) and without, under glibc's defaults and Dask's nanny settings, in the main
 thread and in another one (as a Dask task runs). Besides wall times, each task
-reports its own seconds and CPU seconds (liff.batch's Outcome). A set-up's gap per task, wall x workers / tasks - mean task seconds, is the
-time a worker spent not running a task (scheduling, transfers, the tail of the run).
+reports its own seconds and CPU seconds (liff.batch's Outcome). A set-up's gap per task,
+wall x workers / tasks - mean task seconds, is the time a worker spent not running a
+task (scheduling, transfers, the tail of the run).
 Dask's overhead per task is the wall-time difference to the local pool in the same
 round, times workers / tasks: all it costs, its processes' own work competing with the
 tasks included; printed beside it, the part between tasks (the gaps' difference) and
@@ -223,8 +224,8 @@ SETUPS = ("local, 1 worker x 1 thread", "local, 1 worker x 2 threads",
 #: keeps the workers' statistical profiler running during the run, which liff pauses
 #: (it samples the task's thread from the worker's event loop every 10 ms; liff's
 #: _dask_workers). (Earlier runs' fifth set-ups: workers started with MALLOC_ARENA_MAX=1,
-#: no better once a thread's memory was kept (then by tuning glibc, now by the core itself); the profiler turned off in the
-#: workers' configuration, as fast as pausing it.)
+#: no better once a thread's memory was kept (then by tuning glibc, now by the core
+#: itself); the profiler turned off in the workers' configuration, as fast as pausing it.)
 DASK_CONFIG = {SETUPS[3]: {}, SETUPS[4]: {}}
 
 

@@ -172,7 +172,8 @@ def measure(text: str, timeout: Optional[float] = None) -> Dict[str, float]:
 
 def table(cases: List[str]) -> List[str]:
     """The markdown table of docs/RELIABILITY.md, one row per case as it is measured."""
-    rows = ["| case | input MB | slices | batch | keypoints | estimate MB | core's peak MB | peak MB | estimate / peak |",
+    rows = ["| case | input MB | slices | batch | keypoints | estimate MB | core's peak MB | peak MB "
+            "| estimate / peak |",
             "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for line in rows:
         print(line, flush=True)

@@ -26,8 +26,8 @@ import warnings
 
 import numpy as np
 
-import liff
 import baselines
+import liff
 from liff import synthetic
 from scoring import above_threshold, score_blobs
 

@@ -14,8 +14,9 @@ slopes, numSlopes = 0), as the median ratio of interleaved runs in process CPU t
 (all threads; robust to other load on the machine) and in wall time.
 
 Then textured layers of low contrast (0.3) under view noise (variance 1e-4 to 1e-2):
-layers the default range recovers against a hand-set [-3, 3]. Then, when present, HCI cotton (../shared/data/hci/cotton): default parameters
-against its ground truth (targets: median <= 0.015, p90 <= 0.12) and the time against
+layers the default range recovers against a hand-set [-3, 3]. Then, when present, HCI
+cotton (../shared/data/hci/cotton): default parameters against its ground truth
+(targets: median <= 0.015, p90 <= 0.12) and the time against
 a uniform stack over its ground-truth range; and benchmarks/speed.py's scene (Illum
 size) against the previous default, [-1, 1] with max(T, S) slices.
 

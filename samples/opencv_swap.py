@@ -43,7 +43,9 @@ def main() -> int:
     scene = synthetic.textured_layers((9, 9, 200, 260), noise_variance=args.noise, contrast=0.3)
     lf = scene.light_field
     first, second = lf[:, :, :180, :240], lf[:, :, 7:187, 12:252]  # moved by (12, 7) px
-    centre = lambda light_field: np.round(light_field[4, 4] * 255).astype(np.uint8)
+
+    def centre(light_field):
+        return np.round(light_field[4, 4] * 255).astype(np.uint8)
 
     detector = liff.LiFF.create()  # LiFF: instead of cv2.SIFT.create()
     homography, inliers, good, picture = match_and_draw(

@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import lfhelpers
 import liff
 from liff import synthetic
-
-import lfhelpers
 
 
 @pytest.fixture

@@ -60,12 +60,7 @@ LAYER_OF: Dict[str, int] = {name: level for level, (_, names) in enumerate(LAYER
 #: Modules not checked yet, each named with why (pytest shows them as skipped):
 #: another change reworks them (issue 27: colmap.py split into a package, private names
 #: used across modules). What they still need is in that change's description.
-PENDING = {
-    "colmap.py": "issue 27: liff.colmap is being split into a package (function-level "
-                 "imports of liff.pose, liff._pairs, liff.keypoint_rows, liff.camera)",
-    "hloc.py": "issue 27: reworked with the liff.colmap split (a function-level import of "
-               "liff.feature_file)",
-}
+PENDING: Dict[str, str] = {}
 
 #: What a function-level import of one of liff's modules says on its line or in the
 #: comment lines right above it.

@@ -58,20 +58,23 @@ LIFF_FMA_LOOP void symmetricTaps(const float* const* rows, const float* taps, in
   const float* centre = rows[radius];
 #ifdef LIFF_VEC8
   const float k0 = taps[0];  // a scalar operand broadcasts (one vbroadcastss)
-  for (; x + kLanes * kVectors <= width; x += kLanes * kVectors) {
-    Vec8 acc[kVectors];
-    for (int v = 0; v < kVectors; ++v) acc[v] = k0 * load(centre + x + v * kLanes);
+  // 16-float vectors: one AVX-512 register each in the v4 build (the horizontal pass is
+  // bound by its unaligned loads, half as many per pixel there), two AVX ones in v3.
+  constexpr int kWide = 2 * kLanes, kWideVectors = kVectors / 2;
+  for (; x + kWide * kWideVectors <= width; x += kWide * kWideVectors) {
+    Vec16 acc[kWideVectors];
+    for (int v = 0; v < kWideVectors; ++v) acc[v] = k0 * load16(centre + x + v * kWide);
     for (int i = 1; i <= radius; ++i) {
       const float k = taps[i];
       const float* a = rows[radius - i] + x;
       const float* b = rows[radius + i] + x;
-      for (int v = 0; v < kVectors; ++v)
-        acc[v] += k * (load(a + v * kLanes) + load(b + v * kLanes));
+      for (int v = 0; v < kWideVectors; ++v)
+        acc[v] += k * (load16(a + v * kWide) + load16(b + v * kWide));
     }
-    for (int v = 0; v < kVectors; ++v) store(out + x + v * kLanes, acc[v]);
+    for (int v = 0; v < kWideVectors; ++v) store16(out + x + v * kWide, acc[v]);
     if (dog)
-      for (int v = 0; v < kVectors; ++v)
-        store(dog + x + v * kLanes, acc[v] - load(before + x + v * kLanes));
+      for (int v = 0; v < kWideVectors; ++v)
+        store16(dog + x + v * kWide, acc[v] - load16(before + x + v * kWide));
   }
   for (; x + kLanes <= width; x += kLanes) {
     Vec8 acc = k0 * load(centre + x);

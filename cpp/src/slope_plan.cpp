@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <liff/liff.hpp>
 
 #include "focal_stack.hpp"
 #include "require.hpp"
@@ -84,6 +85,15 @@ SlopePlan uniformPlan(const Parameters& p, int T, int S) {
             cv::format("firstSlope = lastSlope = %g with numSlopes = %d; expected "
                        "firstSlope < lastSlope, or numSlopes = 1",
                        p.firstSlope, n));
+    // Slices closer than class_id's slope resolution could not be told apart in the
+    // keypoints (and a subnormal spacing rounds to repeated slopes).
+    require(n == 1 || (p.lastSlope - p.firstSlope) / (n - 1) >= 1.0 / kSlopeScale,
+            cv::format("firstSlope = %g and lastSlope = %g with %d slopes are %g apart; "
+                       "expected slices at least 1/%.0f px per view step apart (the slope "
+                       "resolution of class_id): widen the range, or use fewer slopes "
+                       "(numSlopes = 1 for one slice)",
+                       p.firstSlope, p.lastSlope, n, (p.lastSlope - p.firstSlope) / (n - 1),
+                       kSlopeScale));
   }
   SlopePlan plan;
   plan.slopes = slopeGrid(p.firstSlope, p.lastSlope, n);

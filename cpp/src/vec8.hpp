@@ -23,6 +23,14 @@ inline Vec8 load(const float* p) {
   return v;
 }
 inline void store(float* p, Vec8 v) { std::memcpy(p, &v, sizeof v); }
+/// 16 floats: one AVX-512 register where the build has it, else two of Vec8's.
+typedef float Vec16 __attribute__((vector_size(2 * kLanes * sizeof(float))));
+inline Vec16 load16(const float* p) {
+  Vec16 v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+inline void store16(float* p, Vec16 v) { std::memcpy(p, &v, sizeof v); }
 #define LIFF_VEC8 1
 #endif
 

@@ -16,7 +16,7 @@ constexpr float kSiftBias = 0.25f;
 // Every entry of every descriptor within one count of cv::SIFT's round(512 d), and at
 // least this share of the descriptors identical bit for bit. Measured on this image:
 // 240 of 241 identical with OpenCV 4.6 (Debian's), the other within one count;
-// tests/test_sift_parity.py sees 89% identical with cv2 5.0, all within one count.
+// tests/detector/test_sift_parity.py sees 89% identical with cv2 5.0, all within one count.
 constexpr double kIdenticalShare = 0.85;
 
 // 160 x 160 smoothed noise in uint8 (many SIFT features), as tests/conftest.py's

@@ -5,6 +5,7 @@
 #include <array>
 #include <vector>
 
+#include <liff/liff.hpp>
 #include "slope_plan.hpp"
 
 namespace {
@@ -66,3 +67,20 @@ TEST(SlopePlan, NearestIsTheClosestSliceOnTheGridAndSkipsGaps) {
 }
 
 }  // namespace
+
+// A hand-set range too narrow for distinct slices (slices closer than class_id's
+// resolution; a subnormal width rounds to repeated slopes) is refused naming the range,
+// not detected on repeated slices (it ended in std::map::at's exception).
+TEST(UniformPlan, SlicesCloserThanTheSlopeResolutionAreRefused) {
+  liff::Parameters p;
+  p.firstSlope = -5e-324;
+  p.lastSlope = 0.0;
+  EXPECT_THROW(liff::detail::uniformPlan(p, 3, 3), cv::Exception);
+  p.firstSlope = -1e-6;
+  EXPECT_THROW(liff::detail::uniformPlan(p, 3, 3), cv::Exception);
+  p.numSlopes = 1;  // one slice: any range
+  EXPECT_EQ(liff::detail::uniformPlan(p, 3, 3).slopes.size(), 1u);
+  p.numSlopes = 0;
+  p.firstSlope = -2.0 / liff::kSlopeScale;  // 3 slices exactly the resolution apart
+  EXPECT_EQ(liff::detail::uniformPlan(p, 3, 3).slopes.size(), 3u);
+}

@@ -7,14 +7,20 @@ pixel column, channel) instead of an image. Keypoints and descriptors are what
 disparity) is in ``class_id`` and read with :func:`keypoint_slopes`.
 """
 
-from ._version import __version__  # noqa: F401 (liff.__version__)
-from ._core import (getNumThreads, getWorkingMemoryReuse, keptWorkingMemoryBytes, opencvVersion,
-                    releaseWorkingMemory, setNumThreads, setWorkingMemoryReuse)
+from ._core import (
+    getNumThreads,
+    getWorkingMemoryReuse,
+    keptWorkingMemoryBytes,
+    opencvVersion,
+    releaseWorkingMemory,
+    setNumThreads,
+    setWorkingMemoryReuse,
+)
 from ._detector import PARAMETERS, LiFF, LiFF_create
-from ._warnings import (IntensityWarning, LensletSizeWarning, LiffWarning, MissingViewsWarning,
-                        SlopeRangeWarning)
-from .keypoint_rows import SLOPE_SCALE, keypoint_slopes
+from ._version import __version__  # noqa: F401 (liff.__version__)
+from ._warnings import IntensityWarning, LensletSizeWarning, LiffWarning, MissingViewsWarning, SlopeRangeWarning
 from .camera import LightFieldCamera
+from .keypoint_rows import SLOPE_SCALE, keypoint_slopes
 from .pose import PoseEstimationError, estimate_relative_pose
 
 __all__ = [

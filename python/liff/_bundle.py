@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._rigid import _information
+from ._rigid import inverse_spd3
 
 #: Levenberg-Marquardt damping: start, factor on a rejected/accepted step, bounds
 _DAMPING = (1e-3, 10.0, 1e-12, 1e12)
@@ -55,13 +55,6 @@ def _loss(z: np.ndarray, loss: str, f_scale: float):
     raise ValueError(f"loss = {loss!r}; expected 'linear' or 'cauchy'")
 
 
-def _inverse3(M: np.ndarray) -> np.ndarray:
-    """Inverses of (n, 3, 3) symmetric positive definite matrices (the adjugate over the
-    determinant; a point's normal matrix is at least its capture-1 observation's
-    information, so it is never near singular)."""
-    return _information(M)
-
-
 def solve(problem, params0: np.ndarray, loss: str = "linear", f_scale: float = 3.0,
           max_evaluations: int = 100, xtol: float = 1e-8, ftol: float = 1e-8) -> Result:
     """Minimises ``0.5 sum rho(r^2)`` over the pose and every point of ``problem``.
@@ -86,7 +79,6 @@ def solve(problem, params0: np.ndarray, loss: str = "linear", f_scale: float = 3
     Result
     """
     x = np.array(params0, np.float64)
-    n = (len(x) - 6) // 3
     r = problem.residuals(x)
     cost, gradient_weight, weight = _loss(r * r, loss, f_scale)
     damping, factor, low, high = _DAMPING
@@ -107,7 +99,9 @@ def solve(problem, params0: np.ndarray, loss: str = "linear", f_scale: float = 3
         dU, dV = np.einsum("nri,nri->i", A, A), np.einsum("nri,nri->ni", B, B)
         done = False
         while evaluations < max_evaluations:
-            Vi = _inverse3(V + (damping * np.maximum(dV, 1e-300))[:, :, None] * np.eye(3))
+            # (a point's normal matrix is at least its capture-1 observation's information,
+            # so it is never near singular)
+            Vi = inverse_spd3(V + (damping * np.maximum(dV, 1e-300))[:, :, None] * np.eye(3))
             WV = W @ Vi  # (n, 6, 3)
             S = (U + np.diag(damping * np.maximum(dU, 1e-300))
                  - WV.transpose(1, 0, 2).reshape(6, -1) @ W.transpose(1, 0, 2).reshape(6, -1).T)

@@ -1,6 +1,6 @@
 """Type stubs for the compiled module liff._core (see liff.LiFF for the public API).
 
-tests/test_api.py checks these against the module: every function, method and
+tests/detector/test_feature2d_api.py checks these against the module: every function, method and
 attribute here exists there and the other way round, and each parameter of
 PARAMETERS has its getter and setter.
 """

@@ -22,7 +22,6 @@ from .io.eslf import check_given_lenslets
 from .io.images import read_image
 from .preprocess import border_mask, prepare
 
-
 #: The slope range's create() keywords: on the command line, not giving one differs
 #: from giving its default (liff detect then takes a reader's range, docs/SLOPES.md).
 SLOPE_BOUNDS = ("firstSlope", "lastSlope")

@@ -15,7 +15,7 @@ import numpy as np
 
 from . import _core
 from ._warnings import SlopeRangeWarning
-from .keypoint_rows import SLOPE_SCALE, KeyPoints, keypoints_to_rows, rows_to_keypoints
+from .keypoint_rows import KeyPoints, keypoints_to_rows, rows_to_keypoints
 
 RANGE_END_SHARE: float = _core.RANGE_END_SHARE
 """A hand-set slope range warns when more than this share of features sit at its ends

@@ -33,7 +33,7 @@ def add_reader_options(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--preprocess", action="store_true", help=PREPROCESS_HELP)
 
 
-#: what liff.preprocess.prepare does, as the README says it (tests/test_input_registry.py)
+#: what liff.preprocess.prepare does, as the README says it (tests/io/test_format_registry.py)
 PREPROCESSING = "luminance, gamma 0.5, one histogram stretch over the whole light field"
 
 

@@ -27,7 +27,8 @@ from typing import List, Optional, Sequence, Tuple
 from ._flags import add_reader_options, reader_options, shown_options
 from ._paths import refuse_special
 from .io.formats import FORMATS, OPTIONS, formats_taking
-from .io.layout import FEATURE_FILE, Entry, expand as expand_path, expand_match
+from .io.layout import FEATURE_FILE, Entry, expand_match
+from .io.layout import expand as expand_path
 from .io.views import compile_pattern
 
 

@@ -63,25 +63,27 @@ def run_batch(function: Callable, jobs: Sequence[tuple], workers: int, command: 
             report(i, error)
             finished(progress, label(jobs[i]), failed=True)
 
-    if workers <= 1 or len(jobs) <= 1:
-        for i, job in enumerate(jobs):
-            settle(i, partial(function, *job))
-    else:
-        # Each worker gets its share of the cores: LiFF uses all of them by default, and
-        # N processes that each did would oversubscribe the machine N times over.
-        threads = max(1, (os.cpu_count() or 1) // workers)
-        pool = ProcessPoolExecutor(max_workers=workers, initializer=_set_threads,
-                                   initargs=(threads,))
-        try:
-            futures = {pool.submit(function, *job): i for i, job in enumerate(jobs)}
-            for future in as_completed(futures):
-                settle(futures[future], future.result)
-        except BaseException:  # Ctrl-C, SIGTERM: stop now, not after the queued jobs
-            stop_now(pool)
-            raise
-        pool.shutdown()
-    if progress:
-        progress.close()
+    try:
+        if workers <= 1 or len(jobs) <= 1:
+            for i, job in enumerate(jobs):
+                settle(i, partial(function, *job))
+        else:
+            # Each worker gets its share of the cores: LiFF uses all of them by default, and
+            # N processes that each did would oversubscribe the machine N times over.
+            threads = max(1, (os.cpu_count() or 1) // workers)
+            pool = ProcessPoolExecutor(max_workers=workers, initializer=_set_threads,
+                                       initargs=(threads,))
+            try:
+                futures = {pool.submit(function, *job): i for i, job in enumerate(jobs)}
+                for future in as_completed(futures):
+                    settle(futures[future], future.result)
+            except BaseException:  # Ctrl-C, SIGTERM: stop now, not after the queued jobs
+                stop_now(pool)
+                raise
+            pool.shutdown()
+    finally:  # however the run ends: a bar left open says "still working" forever
+        if progress:
+            progress.close()
     return results, failures
 
 

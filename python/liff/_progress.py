@@ -27,6 +27,9 @@ LINE_SECONDS = 10.0
 HEARTBEAT_SECONDS = 30.0
 """In a log, a line at least this often while a step or an item is still running."""
 
+HEARTBEAT_THREAD = "liff progress heartbeat"
+"""The name of the threads that say so (one per open progress line or step)."""
+
 
 def _bar_wanted() -> bool:
     return "LIFF_PROGRESS" in os.environ or sys.stderr.isatty()
@@ -41,7 +44,7 @@ class _Heartbeat:
         self.lock = threading.Lock()
         self.last = time.monotonic()
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread = threading.Thread(target=self._run, daemon=True, name=HEARTBEAT_THREAD)
         self._thread.start()
 
     def _run(self) -> None:

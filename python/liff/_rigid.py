@@ -12,9 +12,10 @@
   whose hypothesis :func:`liff.pose.estimate_relative_pose` scores as one more.
 
 Why not a library's robust estimator alone: OpenCV's ``estimateAffine3D`` and COLMAP's
-``estimate_rigid3d_robust`` (or :func:`robust_rigid_fit`) threshold residuals in metres, and a light field's depth noise grows
-as Z^2 / (f b) times its slope noise, so a 3-D threshold drops the right far matches or
-admits wrong near ones; these scores are in each capture's observations instead.
+``estimate_rigid3d_robust`` (or :func:`robust_rigid_fit`) threshold residuals in metres,
+and a light field's depth noise grows as Z^2 / (f b) times its slope noise, so a 3-D
+threshold drops the right far matches or admits wrong near ones; these scores are in each
+capture's observations instead.
 
 The model is :func:`liff.pose.refine_relative_pose`'s: a feature of capture 1 at pixel
 (x, y) with inverse depth w (from its slope) is the point whose direction is
@@ -204,8 +205,10 @@ def _mahalanobis(entries, u: np.ndarray) -> np.ndarray:
     return q / det
 
 
-def _information(C: np.ndarray) -> np.ndarray:
-    """Inverse (m, 3, 3) of symmetric positive definite matrices from the adjugate."""
+def inverse_spd3(C: np.ndarray) -> np.ndarray:
+    """Inverses of (m, 3, 3) symmetric positive definite matrices, from the adjugate over
+    the determinant (vectorised; no check of definiteness): a covariance's information
+    here, and the bundle adjustment's point blocks (:mod:`liff._bundle`)."""
     a, b, c = C[:, 0, 0], C[:, 0, 1], C[:, 0, 2]
     d, e, f = C[:, 1, 1], C[:, 1, 2], C[:, 2, 2]
     A = np.empty_like(C)
@@ -433,7 +436,7 @@ class TransferScorer:
         J, _, _, _ = self._jacobian_and_error(R, t, h, i, p)
         C = self._whitened_covariance(J)
         scale = 1.0 / self.sd2[i]
-        info = _information(C) * scale[:, :, None] * scale[:, None, :]  # C^-1 in capture 2's units
+        info = inverse_spd3(C) * scale[:, :, None] * scale[:, None, :]  # C^-1 in capture 2's units
         bad = np.bincount(h, weights=~np.isfinite(info).all(axis=(1, 2)), minlength=H) > 0
         keep = ~bad[h]
         h, i, info = h[keep], i[keep], info[keep]

@@ -24,8 +24,7 @@ from ._flags import shown_options
 from ._inputs import expand_args, input_identity, modified_after, protected_inputs
 from ._version import __version__
 from ._warnings import LiffWarning
-from .feature_file import (Features, centre_view, content_problem, keypoints_in_centre_view,
-                           read_meta, save_features)
+from .feature_file import Features, centre_view, content_problem, keypoints_in_centre_view, read_meta, save_features
 from .io.images import IMAGE_SUFFIXES, write_image
 from .outputs import atomic_output, refuse_inputs
 from .plot import draw_keypoints_by_slope

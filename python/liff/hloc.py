@@ -44,12 +44,12 @@ from typing import Iterator, List, NamedTuple, Optional, Sequence, Tuple
 import cv2
 import numpy as np
 
+from ._paths import PathLike
 from .colmap import grey_uint8_image, keypoints_to_colmap
-from .feature_file import content_digest
+from .feature_file import content_digest, load_features
 from .io.images import write_image
 from .keypoint_rows import keypoint_slopes
 from .outputs import atomic_output
-from ._paths import PathLike
 
 
 def names_to_pair(name0: str, name1: str) -> str:
@@ -594,7 +594,6 @@ def check_export(path: "os.PathLike", feature_paths: Sequence["os.PathLike"],
     ValueError
         For any of those, naming the file or names.
     """
-    import h5py
 
     check_file_kind(path, "features")
     names = [image_name(p) for p in feature_paths]
@@ -667,8 +666,6 @@ def add_feature_files(path: "os.PathLike", feature_paths: Sequence["os.PathLike"
         is written then.
     """
     import h5py
-
-    from .feature_file import load_features
 
     names = check_export(path, feature_paths, image_dir, overwrite)
     groups = []

@@ -140,9 +140,10 @@ MIN_HEIGHT = 120  # pixels: the colour bar's three labels fit
 def draw_ground_truth(picture: np.ndarray, points: np.ndarray, found: np.ndarray,
                       scale: int = 2) -> np.ndarray:
     """Marks known feature positions on a picture from :func:`draw_keypoints_by_slope`
-    (which calls this with its ``truth``, under the features' dots): a white + on the ones found, its arms starting outside the feature's dot so that the
-    slope colour shows through the gap in its middle, a magenta x on the ones missed
-    (colours the slope map does not use), and a legend with both counts at the top left.
+    (which calls this with its ``truth``, under the features' dots): a white + on the ones
+    found, its arms starting outside the feature's dot so that the slope colour shows
+    through the gap in its middle, a magenta x on the ones missed (colours the slope map
+    does not use), and a legend with both counts at the top left.
 
     Parameters
     ----------

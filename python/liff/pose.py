@@ -27,9 +27,10 @@ import cv2
 import numpy as np
 
 from . import _bundle
-from ._rigid import TransferScorer, rigid_fits as _rigid_fits, robust_rigid_fit, sample_triples
+from ._rigid import TransferScorer, robust_rigid_fit, sample_triples
+from ._rigid import rigid_fits as _rigid_fits
 from .camera import LightFieldCamera, keypoint_geometry
-from .matching import size_mask, ratio_matches
+from .matching import ratio_matches, size_mask
 
 #: chi-square (3 degrees of freedom: 6 residuals, 3 point parameters) below which a
 #: match is an inlier of the refined pose; its 99.9% quantile.
@@ -168,8 +169,17 @@ def translation_length_sigma(translation: np.ndarray, covariance: np.ndarray) ->
     return float(np.sqrt(direction @ covariance[3:, 3:] @ direction))
 
 
-def _check_seed(seed) -> None:
-    """RANSAC seeds are what numpy and COLMAP both take: integers in [0, 2**31)."""
+def check_seed(seed) -> None:
+    """Checks a RANSAC seed: what numpy and COLMAP both take, an integer in [0, 2**31).
+
+    Every estimate here checks its seed with it, and so does
+    :func:`liff.colmap.match_by_pose`, before any pair is estimated.
+
+    Raises
+    ------
+    ValueError
+        For anything else (a bool, a float, a negative or too large integer), naming it.
+    """
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) \
             or not 0 <= seed < 2 ** 31:
         raise ValueError(f"seed = {seed!r}; expected an integer in [0, 2**31)")
@@ -472,7 +482,8 @@ def _transfer(obs1: np.ndarray, sigma1: np.ndarray, camera1: LightFieldCamera,
     Returns the predicted (x, y, slope) in capture 2, shape (..., n, 3) (NaN for points
     behind it), and the first-order covariance of that prediction from capture 1's
     noise ``sigma1`` (n, 2: position, slope) carried through the pixel and the inverse
-    depth w, shape (..., n, 3, 3), or None when ``covariance`` is False. The point is (x, y, w) in capture 1; capture 2 sees
+    depth w, shape (..., n, 3, 3), or None when ``covariance`` is False. The point is
+    (x, y, w) in capture 1; capture 2 sees
     ``p = R d + t w``, d = ((x - cx) / f, (y - cy) / f, 1) (the model of
     :func:`refine_relative_pose`).
     """
@@ -575,7 +586,7 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
         re-paired at random (``RANSAC_CHANCE_TRIALS`` re-pairings): when every match is
         wrong, some motion still agrees with a few of them.
     """
-    _check_seed(seed)
+    check_seed(seed)
     obs1, obs2 = np.asarray(obs1, np.float64), np.asarray(obs2, np.float64)
     n = len(obs1)
     s = np.broadcast_to(np.asarray(sigma, np.float64), (n, 2))
@@ -746,7 +757,7 @@ def ransac_pose(points1: np.ndarray, points2: np.ndarray, max_error: float,
     ValueError
         For a seed outside [0, 2**31), or points :func:`robust_rigid_fit` refuses.
     """
-    _check_seed(seed)
+    check_seed(seed)
     if len(points1) < MIN_MATCHES:
         raise PoseEstimationError(f"{len(points1)} 3-D matches; expected at least {MIN_MATCHES}")
     R, t, inliers = robust_rigid_fit(points1, points2, max_error, np.random.default_rng(seed))
@@ -822,7 +833,7 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
     Model, assumptions and limits: docs/METRIC.md.
     """
     camera2 = camera1 if camera2 is None else camera2
-    _check_seed(seed)
+    check_seed(seed)
     for name, camera in (("camera1", camera1), ("camera2", camera2)):
         if not isinstance(camera, LightFieldCamera):
             raise ValueError(f"{name} is a {type(camera).__name__}; expected a liff.LightFieldCamera")

@@ -3,8 +3,8 @@
 pycolmap is a test dependency (the ``test`` extra): these tests fail, not skip, without it.
 """
 
-import re
 import os
+import re
 from pathlib import Path
 
 import cv2
@@ -13,7 +13,7 @@ import pycolmap  # a missing pycolmap must fail here, loudly
 import pytest
 
 import liff
-from liff import preprocess, captures, colmap
+from liff import captures, colmap, preprocess
 
 THRESHOLDS = dict(contrastThreshold=0.02, edgeThreshold=10)
 

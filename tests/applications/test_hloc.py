@@ -423,7 +423,7 @@ def test_write_matches_checks_the_features_file(arc, tmp_path):
     from liff.hloc import features_digest
 
     feats = arc / "feats.h5"
-    d0, d1 = features_digest(feats, "pose00.png"), features_digest(feats, "pose01.png")
+    d1 = features_digest(feats, "pose01.png")
     with h5py.File(feats, "r") as f:
         n0, n1 = len(f["pose00.png"]["keypoints"]), len(f["pose01.png"]["keypoints"])
     path = tmp_path / "m.h5"

@@ -15,12 +15,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import liff
-from liff import captures
 import liff.cli.pose
+from lfhelpers import toolbox_H
+from liff import captures
 from liff.cli import main
 from liff.io import read_hci, read_pfm
-
-from lfhelpers import toolbox_H
 
 HCI = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "hci" / "cotton"
 # The captures' slopes span [-1, 1] from the back wall to the nearest box; the detector
@@ -170,12 +169,12 @@ def test_lftoolbox_camera_agrees_with_the_toolbox_rays():
     z0 = -H[0, 2] / H[2, 2]  # the views' centres of projection lie at z = -H13 / H33
     point = np.array([0.05, -0.03, 0.6])  # toolbox frame, metres
     i = np.arange(1, 10, dtype=float)
-    # X = (H11 i + H13 k + H15) + (H31 i + H33 k + H35) Z, solved for k (same for y with l)
+    # X = (H11 i + H13 k + H15) + (H31 i + H33 k + H35) Z, solved for k (same for y with ell)
     k = (point[0] - H[0, 0] * i - H[0, 4] - (H[2, 0] * i + H[2, 4]) * point[2]) / (H[0, 2] + H[2, 2] * point[2])
-    l = (point[1] - H[1, 1] * i - H[1, 4] - (H[3, 1] * i + H[3, 4]) * point[2]) / (H[1, 3] + H[3, 3] * point[2])
-    slope_x, slope_y = -np.polyfit(i, k, 1)[0], -np.polyfit(i, l, 1)[0]  # x_view = x - slope (s - s_c)
+    ell = (point[1] - H[1, 1] * i - H[1, 4] - (H[3, 1] * i + H[3, 4]) * point[2]) / (H[1, 3] + H[3, 3] * point[2])
+    slope_x, slope_y = -np.polyfit(i, k, 1)[0], -np.polyfit(i, ell, 1)[0]  # x_view = x - slope (s - s_c)
     assert slope_x == pytest.approx(slope_y)
-    kp = keypoint(k[4] - 1, l[4] - 1, slope_x)  # centre view i = 5, 0-based pixels
+    kp = keypoint(k[4] - 1, ell[4] - 1, slope_x)  # centre view i = 5, 0-based pixels
     assert camera.depth([slope_x])[0] == pytest.approx(point[2] - z0, rel=1e-9)
     # (class_id keeps the slope to 1/65536 px per view: 3e-5 relative in depth here)
     assert camera.points_3d([kp])[0] == pytest.approx(point - [0, 0, z0], rel=1e-4)

@@ -12,10 +12,9 @@ import pytest
 import scipy.io
 
 import liff
+from lfhelpers import toolbox_H
 from liff.cli import main
 from liff.cli.calibration import add_camera_options, camera_from_args, read_camera_file
-
-from lfhelpers import toolbox_H
 
 
 @pytest.fixture(scope="module")

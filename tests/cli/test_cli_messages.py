@@ -8,12 +8,11 @@ import re
 
 import numpy as np
 import pytest
+from test_subcommands_end_to_end import hci_folder
 
 import liff
-from liff.cli import main
-
 from lfhelpers import write_mat_v73
-from test_subcommands_end_to_end import hci_folder
+from liff.cli import main
 
 
 def eslf_image(path, n=5, size=64):

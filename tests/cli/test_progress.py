@@ -99,3 +99,26 @@ def test_a_failed_input_is_counted_apart_not_done(tmp_path, capsys, two_inputs):
         done = int(re.match(r"liff detect: (\d)/3 file\(s\) done", failing).group(1))
         assert done == lines.index(failing)  # the failed input is not counted done
         assert err.count(str(broken)) == 1 and f"liff detect: {broken}: " in err
+
+
+def test_a_batch_that_raises_leaves_no_heartbeat_behind(monkeypatch):
+    """A run that ends in an error nobody catches (or Ctrl-C) closes its progress line:
+    an open one kept printing "still working" from its thread for the life of the
+    process (seen in a later test's output)."""
+    import threading
+
+    from liff import _processes
+    from liff._progress import HEARTBEAT_THREAD
+
+    monkeypatch.delenv("LIFF_PROGRESS", raising=False)
+
+    def fails(x):
+        raise RuntimeError(f"job {x} broke")
+
+    def heartbeats():
+        return [t for t in threading.enumerate() if t.name == HEARTBEAT_THREAD]
+
+    before = len(heartbeats())
+    with pytest.raises(RuntimeError, match="job 0 broke"):
+        _processes.run_batch(fails, [(0,), (1,)], 1, "test", label=lambda job: str(job[0]))
+    assert len(heartbeats()) == before

@@ -25,7 +25,6 @@ from typing import Callable, Dict, List, Tuple
 
 import cv2
 import numpy as np
-import pytest
 
 import liff
 from liff.cli import build_parser, main

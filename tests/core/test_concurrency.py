@@ -10,12 +10,10 @@ import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import cv2
-
 import numpy as np
 import pytest
 
 import liff
-
 from lfhelpers import assert_same_keypoints, kp_fields
 
 

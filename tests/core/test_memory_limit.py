@@ -9,9 +9,8 @@ import re
 import numpy as np
 import pytest
 
-import liff
-
 import lfhelpers
+import liff
 
 
 def needed_mb(detector, lf) -> float:

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import liff
-from liff import synthetic
 from lfhelpers import assert_same_keypoints, blob_grid, textured_lf, to_dtype
+from liff import synthetic
 
 
 @pytest.fixture

@@ -270,3 +270,14 @@ def test_a_bool_for_an_integer_parameter_is_a_type_error(name, value):
     accessor = next(p.accessor for p in liff.PARAMETERS if p.name == name)
     with pytest.raises(TypeError, match="not a bool"):
         getattr(liff.LiFF.create(), "set" + accessor)(value)
+
+
+@pytest.mark.parametrize("first", [-5e-324, -1e-6])
+def test_a_hand_set_range_too_narrow_for_distinct_slices_is_refused(first):
+    """Slices closer than class_id's slope resolution (1/65536) cannot be told apart; a
+    subnormal width rounded to repeated slopes and ended in std::map::at's IndexError
+    (found by tests/detector/test_random_inputs.py)."""
+    lf = np.random.default_rng(0).random((3, 3, 40, 40)).astype(np.float32)
+    with pytest.raises(ValueError, match="at least 1/65536 px per view step apart"):
+        liff.LiFF.create(firstSlope=first, lastSlope=0.0).detectAndCompute(lf)
+    liff.LiFF.create(firstSlope=first, lastSlope=0.0, numSlopes=1).detectAndCompute(lf)

@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-import liff
 import lfhelpers
+import liff
 from lfhelpers import assert_same_keypoints, kp_fields
 
 DEFAULTS = dict(

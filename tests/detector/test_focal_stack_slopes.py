@@ -10,9 +10,8 @@ import numpy as np
 import pytest
 
 import liff
-from liff import synthetic
-
 from lfhelpers import assert_no_descriptors, assert_same_keypoints
+from liff import synthetic
 
 
 def blob_layers(slopes, n=5, size=160, seed=0, per_layer=5):

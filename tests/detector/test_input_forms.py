@@ -7,8 +7,14 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import liff
-
-from lfhelpers import assert_close_keypoints, assert_no_descriptors, assert_same_keypoints, nearest_distances, points, to_dtype
+from lfhelpers import (
+    assert_close_keypoints,
+    assert_no_descriptors,
+    assert_same_keypoints,
+    nearest_distances,
+    points,
+    to_dtype,
+)
 
 DTYPES = [np.uint8, np.uint16, np.float32, np.float64]
 

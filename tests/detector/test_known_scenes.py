@@ -13,10 +13,8 @@ import numpy as np
 import pytest
 
 import liff
+from lfhelpers import blob_grid, match_blobs, points, textured_lf
 from liff import synthetic
-
-from lfhelpers import (assert_same_keypoints, blob_grid, match_blobs, points, textured_lf,
-                       to_dtype)
 
 LAYER_SLOPES = [-0.8, -0.3, 0.2, 0.7]
 

@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 import liff
-
 from lfhelpers import assert_no_descriptors, assert_same_keypoints, kp_fields
 
 

@@ -5,9 +5,8 @@ import numpy as np
 import pytest
 
 import liff
-from liff import synthetic
-
 from lfhelpers import textured_lf
+from liff import synthetic
 
 SHIFT = (9, -5)  # camera offset (dx, dy) between the two light fields, in pixels
 

@@ -29,8 +29,8 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 import liff
-from liff.io import read_pfm, write_pfm
 from lfhelpers import assert_no_descriptors
+from liff.io import read_pfm, write_pfm
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "fuzz"))
 import readers  # noqa: E402
@@ -440,12 +440,16 @@ def pfm_files(draw):
     """Bytes of PFM-like files: good and bad magic, sizes, scales, separators and
     payload lengths."""
     magic = draw(st.sampled_from([b"Pf", b"PF", b"pf", b"P6", b"", b"PFF"]) | st.binary(max_size=3))
-    size = lambda: draw(st.sampled_from([b"1", b"2", b"3", b"0", b"-1", b"1e2", b"99999999999",
-                                         b"2.0", b"+2", b"0x2", b"1_0"]) | st.binary(max_size=4))
+    def size():
+        return draw(st.sampled_from([b"1", b"2", b"3", b"0", b"-1", b"1e2", b"99999999999",
+                                     b"2.0", b"+2", b"0x2", b"1_0"]) | st.binary(max_size=4))
+
     width, height = size(), size()
     scale = draw(st.sampled_from([b"-1.0", b"1", b"-0.5", b"0", b"-0", b"nan", b"inf", b"-inf",
                                   b"1e400", b"x"]) | st.binary(max_size=4))
-    sep = lambda: draw(st.sampled_from([b"\n", b" ", b"\t", b"\r\n", b"  \n", b"", b"\x0b"]))
+    def sep():
+        return draw(st.sampled_from([b"\n", b" ", b"\t", b"\r\n", b"  \n", b"", b"\x0b"]))
+
     header = magic + sep() + width + sep() + height + sep() + scale + sep()
     try:
         count = int(width) * int(height) * (3 if magic == b"PF" else 1)

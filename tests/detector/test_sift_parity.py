@@ -13,9 +13,8 @@ import numpy as np
 import pytest
 
 import liff
-from liff import synthetic
-
 from lfhelpers import assert_same_keypoints, nearest_distances, points
+from liff import synthetic
 
 SIFT_BIAS = 0.25
 

@@ -147,7 +147,6 @@ def test_pfm_header_variants_read_alike(tmp_path, shape, header, order):
 
 def test_pfm_crlf_header_whose_data_starts_with_a_line_feed_byte(tmp_path):
     """A header ending in a lone CR, data starting with 0x0a: the file's size tells."""
-    image = np.zeros((1, 2), np.float32)
     data = b"\n" + bytes(7)  # the first float's first byte is 0x0a
     (tmp_path / "cr.pfm").write_bytes(b"Pf\r2 1\r-1\r" + data[:-1] + b"\x00")
     expected = np.frombuffer(data, "<f4").reshape(1, 2)

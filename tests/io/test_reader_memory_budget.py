@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 import liff
-from liff import _budget, io
 from lfhelpers import write_mat_v5, write_mat_v73, zero_png
+from liff import _budget, io
 
 MB = 10**6
 

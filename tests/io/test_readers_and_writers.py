@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import liff
-from liff import io
 from lfhelpers import zero_png
+from liff import io
 
 COTTON = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "hci" / "cotton"
 

@@ -13,15 +13,14 @@ import cv2
 import h5py
 import numpy as np
 import pytest
+from test_readers_and_writers import COTTON, coded_lf, raises_naming
 
 import liff
+from lfhelpers import matlab_order, write_mat_v5, write_mat_v73
 from liff import io, synthetic
 from liff.cli import main
 from liff.feature_file import load_features
 from liff.preprocess import border_mask
-
-from lfhelpers import matlab_order, write_mat_v5, write_mat_v73
-from test_readers_and_writers import COTTON, coded_lf, raises_naming
 
 
 def write_named(folder: Path, lf: np.ndarray, name, views=None) -> None:

@@ -8,12 +8,12 @@ import argparse
 import os
 import shutil
 import sys
-from typing import Optional
+from typing import List, Optional
 
 import numpy as np
 
-from ..keypoint_rows import keypoint_slopes, keypoints_to_rows, rows_to_keypoints
 from ..feature_file import centre_view, load_features
+from ..keypoint_rows import keypoint_slopes, keypoints_to_rows, rows_to_keypoints
 from ..outputs import refuse_inputs
 from . import common
 from .calibration import add_camera_options, calibration_from_args
@@ -260,7 +260,7 @@ def run_sfm(args: argparse.Namespace) -> int:
                          "--matching pose (and a camera), or --mapper default or permissive")
     if args.overwrite:
         shutil.rmtree(sparse, ignore_errors=True)
-    images = []
+    images: List[colmap.FeatureImage] = []
     if camera is None:
         failures = write(args, database, image_dir, images_out=images)
     else:  # the calibration's focal length and principal point are COLMAP's prior
@@ -285,6 +285,7 @@ def run_sfm(args: argparse.Namespace) -> int:
             pair_poses = None
             colmap.match(database)
     if mapper == "poses":
+        assert pair_poses is not None  # (the poses mapper comes with pose matching)
         with common.step("liff sfm: a metric model from the pair poses (pose graph, COLMAP's "
                          "triangulator)"):
             result = colmap.reconstruct_from_poses(database, image_dir, sparse, pair_poses)
@@ -295,7 +296,7 @@ def run_sfm(args: argparse.Namespace) -> int:
     metrics = colmap.table_metrics(database, result)
     print(f"reconstruction ({mapper} mapper): "
           + ("a model in " + sparse if result.success else "FAILED (no model)"))
-    if result.success and result.best.num_points3D() == 0:
+    if result.best is not None and result.best.num_points3D() == 0:
         print(f"liff sfm: the model has no 3-D points: {no_points_reason(pair_poses)}",
               file=sys.stderr)
         return 1
@@ -304,7 +305,7 @@ def run_sfm(args: argparse.Namespace) -> int:
     for label, key, fmt in METRICS:
         value = metrics[key]
         print(f"  {label:26s} " + ("-" if isinstance(value, float) and np.isnan(value) else fmt.format(value)))
-    registered = result.best.num_reg_images() if result.success else 0
+    registered = result.best.num_reg_images() if result.best is not None else 0
     if not result.success and mapper == "poses":
         print("liff sfm: no pair has a metric pose, so there is no model; the poses need more "
               "overlap (or check the camera)", file=sys.stderr)

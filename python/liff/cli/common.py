@@ -12,21 +12,27 @@ from typing import List, Optional, Sequence
 
 import numpy as np
 
-from .._detector import PARAMETERS
-from ..outputs import refuse_inputs
-
 # Named here for the subcommands (common.X), and as liff.cli.common.X was before they moved.
 from .._budget import held_bytes  # noqa: F401
-from .._detection import (SLOPE_BOUNDS, make_detector, read_input,  # noqa: F401
-                          slope_range, with_defaults)
-from .._flags import (PREPROCESSING, PREPROCESS_HELP, add_reader_options,  # noqa: F401
-                      error_line, keyword_flags, name_flags, option_name, reader_dest,
-                      reader_options, shown_options)
-from .._inputs import (expand_args, expand_inputs, input_identity, input_options,  # noqa: F401
-                       modified_after, protected_inputs)
+from .._detection import SLOPE_BOUNDS, make_detector, read_input, slope_range, with_defaults  # noqa: F401
+from .._detector import PARAMETERS
+from .._flags import (  # noqa: F401
+    PREPROCESS_HELP,
+    PREPROCESSING,
+    add_reader_options,
+    error_line,
+    keyword_flags,
+    name_flags,
+    option_name,
+    reader_dest,
+    reader_options,
+    shown_options,
+)
+from .._inputs import expand_args, expand_inputs, input_identity, input_options, modified_after, protected_inputs  # noqa: F401
 from .._processes import finished, run_batch  # noqa: F401
 from .._progress import progress, step  # noqa: F401
 from .._tasks import FILE_ENDINGS, check_output_folder, json_like, output_name  # noqa: F401
+from ..outputs import refuse_inputs
 
 
 def add_detector_options(parser: argparse.ArgumentParser) -> None:

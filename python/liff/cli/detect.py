@@ -9,14 +9,12 @@ from typing import Callable, List, Optional
 
 from .. import batch
 from .._inputs import describe
-from .._tasks import is_batch, plan
+
+# Named here as before they moved to the batch runs' layer (liff._tasks, liff.batch).
+from .._tasks import Detected, changes, destination, detect_one, is_batch, plan, refuse_foreign_plot, settings  # noqa: F401
 from ..batch import check_manifest, manifest_writer
 from ..outputs import refuse_inputs
 from . import common, mask
-
-# Named here as before they moved to the batch runs' layer (liff._tasks, liff.batch).
-from .._tasks import (Detected, changes, destination, detect_one,  # noqa: F401
-                      refuse_foreign_plot, settings)
 
 
 def add_parser(sub) -> None:

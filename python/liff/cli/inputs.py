@@ -2,5 +2,4 @@
 :func:`liff.batch.detect` expands its inputs too), named here as the command line had
 them."""
 
-from .._inputs import (Input, describe, expand, list_line_parser, read_list,  # noqa: F401
-                       resolve_options)
+from .._inputs import Input, describe, expand, list_line_parser, read_list, resolve_options  # noqa: F401

@@ -12,8 +12,8 @@ from .._paths import special_kind
 from ..feature_file import Features, content_digest, features_from_light_field, load_features
 from ..io.images import write_image
 from ..matching import chance_inliers, draw_inliers, ratio_matches, verify
-from ..plot import to_display
 from ..outputs import atomic_output, refuse_inputs
+from ..plot import to_display
 from . import common
 
 #: Fewer RANSAC inliers than this do not show that two views share a scene (COLMAP's
@@ -99,7 +99,7 @@ def check_hloc_options(args: argparse.Namespace) -> None:
     if not args.hloc:
         return
     # lazy: defers pycolmap (optional: liff[sfm]) and SciPy (liff.hloc imports liff.colmap)
-    from ..hloc import features_in, check_pair_names, image_name
+    from ..hloc import check_pair_names, features_in, image_name
 
     common.check_hloc_output(args.hloc, [args.a, args.b], "--hloc", "matches")
     if not args.hloc_features:

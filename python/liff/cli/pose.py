@@ -18,8 +18,7 @@ from ..outputs import atomic_output, refuse_inputs
 from ..pose import estimate_relative_pose
 from ..preprocess import prepare
 from . import common
-from .calibration import (Calibration, add_camera_options, calibration_from_args,
-                          check_feature_file)
+from .calibration import Calibration, add_camera_options, calibration_from_args, check_feature_file
 from .match import MIN_INLIERS, is_feature_file
 
 

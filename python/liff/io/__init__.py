@@ -8,6 +8,7 @@ detector reads them on; :func:`scale_bit_depth` rescales them.
 from .._warnings import IntensityWarning, LensletSizeWarning
 from ._shared import LightFieldFile, centre_views
 from .eslf import detect_lenslet_size, read_eslf, write_eslf
+from .formats import OPTIONS, InputFormat, ReaderOption
 from .hci import HciScene, read_hci
 from .hdf5 import read_hdf5
 from .intensity import check_intensity, intensity_range, scale_bit_depth
@@ -15,7 +16,6 @@ from .mat import read_mat
 from .mosaic import read_mosaic, write_mosaic
 from .numpy_files import read_numpy
 from .pfm import read_pfm, write_pfm
-from .formats import OPTIONS, InputFormat, ReaderOption
 from .read import FORMATS, guess_format, read_light_field
 from .views import read_views, write_views
 

@@ -14,11 +14,19 @@ from typing import Iterable, Optional, Sequence, Tuple
 
 import numpy as np
 
-# The image helpers are public (liff.io.images); the readers take them from here too.
-from .images import (IMAGE_SUFFIXES, LIGHT_FIELD_DTYPES, SIXTEEN_BIT_SUFFIXES,  # noqa: F401
-                     PathLike, as_image, read_image, write_image)
 from .._paths import refuse_special
 from .._warnings import MissingViewsWarning
+
+# The image helpers are public (liff.io.images); the readers take them from here too.
+from .images import (  # noqa: F401
+    IMAGE_SUFFIXES,
+    LIGHT_FIELD_DTYPES,
+    SIXTEEN_BIT_SUFFIXES,
+    PathLike,
+    as_image,
+    read_image,
+    write_image,
+)
 
 
 @dataclass

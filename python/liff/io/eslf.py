@@ -19,8 +19,17 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 
 from .._warnings import LensletSizeWarning
-from ._shared import (LightFieldFile, PathLike, as_image, centre_range, centre_views,
-                      check_writable, positive_int, read_image, write_image)
+from ._shared import (
+    LightFieldFile,
+    PathLike,
+    as_image,
+    centre_range,
+    centre_views,
+    check_writable,
+    positive_int,
+    read_image,
+    write_image,
+)
 
 LYTRO_LENSLET_SIZE = 14
 #: lenslet sizes :func:`detect_lenslet_size` considers

@@ -11,7 +11,7 @@ targets (fuzz/readers.py) and the folder walk (:mod:`liff.io.layout`).
 
 Adding a reader is one module (its ``read_*`` function returning a
 :class:`~liff.io.LightFieldFile`) plus one :class:`InputFormat` entry here;
-tests/test_input_registry.py fails for a reader module that has none.
+tests/io/test_format_registry.py fails for a reader module that has none.
 """
 
 from __future__ import annotations
@@ -25,7 +25,8 @@ from .eslf import read_eslf
 from .hci import is_hci_scene, read_hci_light_field
 from .hdf5 import dataset_shapes, read_hdf5
 from .images import IMAGE_SUFFIXES
-from .mat import holds_light_field as mat_holds_light_field, read_mat
+from .mat import holds_light_field as mat_holds_light_field
+from .mat import read_mat
 from .mosaic import read_mosaic
 from .numpy_files import read_numpy, stored_shapes
 from .views import read_views, view_names

@@ -17,11 +17,11 @@ import cv2
 import numpy as np
 
 from .._budget import array_bytes, check_fits
+from .._paths import refuse_special
 from ..camera import HCI_CAMERA_KEYS, LightFieldCamera
 from ._shared import LightFieldFile, check_incomplete
 from .images import decode_image, header_size
 from .pfm import read_pfm
-from .._paths import refuse_special
 
 PathLike = Union[str, os.PathLike]
 _VIEW = re.compile(r"^input_Cam(\d{3})\.png$")

@@ -24,8 +24,7 @@ from typing import Dict, Optional
 import numpy as np
 
 from .._budget import array_bytes, check_fits
-from ._shared import (LightFieldFile, PathLike, required_module, pick_key, rgb_light_field,
-                      stored_file)
+from ._shared import LightFieldFile, PathLike, pick_key, required_module, rgb_light_field, stored_file
 
 #: the dataset the 2013 HCI benchmark stores the light field in
 LF_DATASET = "LF"

@@ -29,9 +29,8 @@ import numpy as np
 
 from .._budget import check_fits, over_budget, room_bytes
 from . import _matv5
+from ._shared import LightFieldFile, PathLike, check_disparity, pick_key, required_module, rgb_light_field, stored_file
 from .hdf5 import check_dataset_fits, named_dataset_shapes
-from ._shared import (LightFieldFile, PathLike, check_disparity, required_module, pick_key,
-                      rgb_light_field, stored_file)
 
 #: the variable the Light Field Toolbox and the 4D benchmark's tools save the light field in
 LF_VARIABLE = "LF"

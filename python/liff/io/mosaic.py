@@ -11,8 +11,7 @@ import os
 
 import numpy as np
 
-from ._shared import (LightFieldFile, PathLike, as_image, check_writable, grid_size,
-                      read_image, write_image)
+from ._shared import LightFieldFile, PathLike, as_image, check_writable, grid_size, read_image, write_image
 
 
 def read_mosaic(path: PathLike, grid=None) -> LightFieldFile:

@@ -12,8 +12,8 @@ from typing import Optional
 import numpy as np
 
 from .._budget import array_bytes, check_fits
-from ._shared import LightFieldFile, PathLike, check_disparity, check_light_field, pick_key
 from .._paths import refuse_special
+from ._shared import LightFieldFile, PathLike, check_disparity, check_light_field, pick_key
 
 LIGHT_FIELD_KEY = "light_field"
 DISPARITY_KEY = "gt_disparity"

@@ -5,11 +5,10 @@ from __future__ import annotations
 import os
 from typing import Optional
 
-from ._shared import LightFieldFile, PathLike
-from .formats import (FORMATS, OPTIONS, accepted_formats, format_named, formats_taking,
-                      guess_format)
-from .intensity import scale_bit_depth
 from .._paths import refuse_special
+from ._shared import LightFieldFile, PathLike
+from .formats import FORMATS, OPTIONS, accepted_formats, format_named, formats_taking, guess_format
+from .intensity import scale_bit_depth
 
 __all__ = ["FORMATS", "guess_format", "read_light_field"]
 

@@ -22,8 +22,17 @@ from typing import Dict, List, Optional, Pattern, Tuple, Union
 import numpy as np
 
 from .._budget import array_bytes, check_fits
-from ._shared import (IMAGE_SUFFIXES, LightFieldFile, PathLike, as_image, check_writable,
-                      check_incomplete, grid_size, read_image, write_image)
+from ._shared import (
+    IMAGE_SUFFIXES,
+    LightFieldFile,
+    PathLike,
+    as_image,
+    check_incomplete,
+    check_writable,
+    grid_size,
+    read_image,
+    write_image,
+)
 from .images import header_size
 
 # A run of two or more whole numbers joined by "_", the first number at the start of the

@@ -20,22 +20,29 @@ for the model, its assumptions and limits.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import List, Optional, Sequence, Tuple
 
 import cv2
 import numpy as np
 
-from . import _bundle
-from ._rigid import TransferScorer, robust_rigid_fit, sample_triples
-from ._rigid import rigid_fits as _rigid_fits
-from .camera import LightFieldCamera, keypoint_geometry
-from .matching import ratio_matches, size_mask
+from .. import _bundle
+from .._rigid import TransferScorer, robust_rigid_fit, sample_triples
+from .._rigid import rigid_fits as _rigid_fits
+from ..camera import LightFieldCamera
+from ..matching import ratio_matches, size_mask
+from .model import (
+    CHI2_INLIER,
+    MIN_MATCHES,
+    SIGMA_FLOOR,
+    NoiseModel,
+    PoseEstimationError,
+    RelativePose,
+    back_project,
+    check_seed,
+    observations,
+    translation_length_sigma,
+)
 
-#: chi-square (3 degrees of freedom: 6 residuals, 3 point parameters) below which a
-#: match is an inlier of the refined pose; its 99.9% quantile.
-CHI2_INLIER = 16.27
-MIN_MATCHES = 3
 #: rounds of guided matching and refinement after the first pose
 GUIDED_ROUNDS = 2
 #: a-priori noise of a feature's position (pixels) and slope (pixels per view step) that
@@ -51,150 +58,10 @@ RANSAC_LOCAL_POOL = 16
 #: which a pose's inliers must exceed it
 RANSAC_CHANCE_TRIALS = 2
 RANSAC_CHANCE_FACTOR = 1.5
-#: lower bounds of the estimated noise: positions (pixels), slopes (pixels per view step)
-SIGMA_FLOOR = (1e-3, 1e-4)
 #: median of log |z| for a standard normal z: log(0.6745)
 _MEDIAN_LOG_ABS_NORMAL = -0.3937
 #: matches below which the noise model keeps one level per kind (no size or contrast terms)
 _MIN_FOR_TERMS = 100
-
-
-class PoseEstimationError(ValueError):
-    """No trustworthy pose: too few matches, too few inliers, or degenerate geometry."""
-
-
-@dataclass
-class NoiseModel:
-    """Noise of a LiFF feature's position and slope, fitted to the residuals of a pose.
-
-    ``log sigma_k = c_k0 + c_k1 log(size / size_ref) + c_k2 log(response / response_ref)``
-    for k = position (pixels) and slope (pixels per view step): features differ a lot
-    (a thin occluder's edge moves by a pixel where a blob on a wall moves by 1/30 px; a
-    low-contrast feature in noise is found less precisely), and a fit that weighs them
-    alike is no better than its worst features.
-
-    Attributes
-    ----------
-    coefficients : ndarray, shape (2, 3)
-        Rows position, slope; columns intercept, size exponent, response exponent.
-    reference : ndarray, shape (2,)
-        size_ref (pixels) and response_ref, the medians of the features.
-    """
-
-    coefficients: np.ndarray
-    reference: np.ndarray
-
-    def covariates(self, keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
-        """(N, 2): log(size / size_ref), log(response / response_ref); 0 where a keypoint
-        has no positive size or response."""
-        values = np.array([(k.size, k.response) for k in keypoints], np.float64).reshape(-1, 2)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out = np.log(values / self.reference)
-        return np.where(np.isfinite(out), out, 0.0)
-
-    def sigma(self, covariates: np.ndarray) -> np.ndarray:
-        """(N, 2): position and slope noise of features with these covariates."""
-        x = np.column_stack([np.ones(len(covariates)), covariates])
-        return np.maximum(np.exp(x @ self.coefficients.T), SIGMA_FLOOR)
-
-    @classmethod
-    def for_keypoints(cls, keypoints: Sequence[cv2.KeyPoint], sigma_xy: float = np.nan,
-                      sigma_slope: float = np.nan) -> "NoiseModel":
-        """Equal noise for all features, with the keypoints' medians as reference (NaN
-        levels: :func:`refine_relative_pose` estimates them)."""
-        values = np.array([(k.size, k.response) for k in keypoints], np.float64).reshape(-1, 2)
-        reference = np.ones(2)
-        for j in range(2):
-            positive = values[:, j][values[:, j] > 0]
-            if positive.size:
-                reference[j] = np.median(positive)
-        coefficients = np.array([[np.log(sigma_xy), 0, 0], [np.log(sigma_slope), 0, 0]], np.float64)
-        return cls(coefficients, reference)
-
-
-@dataclass
-class RelativePose:
-    """What :func:`refine_relative_pose` returns.
-
-    Attributes
-    ----------
-    rotation : ndarray, shape (3, 3)
-    translation : ndarray, shape (3,)
-        Metres; ``X2 = rotation @ X1 + translation`` maps the centre view's camera frame
-        of capture 1 to that of capture 2.
-    inliers : ndarray of bool, shape (N,)
-        Matches whose observations agree with the pose (chi-square test, 99.9%).
-    points : ndarray, shape (N, 3)
-        Refined 3-D points in capture 1's frame, metres (inf where the inverse depth
-        is <= 0).
-    covariance : ndarray, shape (6, 6)
-        Covariance of (rotation vector in radians, translation in metres) from the
-        inliers' observations and the fitted noise (first order).
-    noise : NoiseModel
-        The fitted noise of the features' positions and slopes.
-    """
-
-    rotation: np.ndarray
-    translation: np.ndarray
-    inliers: np.ndarray
-    points: np.ndarray
-    covariance: np.ndarray
-    noise: NoiseModel
-
-    @property
-    def sigma_xy(self) -> float:
-        """Position noise of a median feature, pixels."""
-        return float(self.noise.sigma(np.zeros((1, 2)))[0, 0])
-
-    @property
-    def sigma_slope(self) -> float:
-        """Slope noise of a median feature, pixels per view step."""
-        return float(self.noise.sigma(np.zeros((1, 2)))[0, 1])
-
-    @property
-    def translation_sigma(self) -> float:
-        """Standard deviation of the translation's length, metres (first order)."""
-        return translation_length_sigma(self.translation, self.covariance)
-
-    @property
-    def rotation_sigma_degrees(self) -> float:
-        """Root of the rotation vector's total variance, degrees."""
-        return float(np.degrees(np.sqrt(np.trace(self.covariance[:3, :3]))))
-
-
-def translation_length_sigma(translation: np.ndarray, covariance: np.ndarray) -> float:
-    """First-order standard deviation of ``|translation|`` from the (6, 6) covariance of
-    (rotation vector, translation): its variance along the translation's direction."""
-    direction = translation / max(np.linalg.norm(translation), 1e-300)
-    return float(np.sqrt(direction @ covariance[3:, 3:] @ direction))
-
-
-def check_seed(seed) -> None:
-    """Checks a RANSAC seed: what numpy and COLMAP both take, an integer in [0, 2**31).
-
-    Every estimate here checks its seed with it, and so does
-    :func:`liff.colmap.match_by_pose`, before any pair is estimated.
-
-    Raises
-    ------
-    ValueError
-        For anything else (a bool, a float, a negative or too large integer), naming it.
-    """
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) \
-            or not 0 <= seed < 2 ** 31:
-        raise ValueError(f"seed = {seed!r}; expected an integer in [0, 2**31)")
-
-
-def observations(keypoints: Sequence[cv2.KeyPoint]) -> np.ndarray:
-    """(x, y, slope) of LiFF keypoints, float64 (N, 3): centre-view pixels and pixels
-    per view step."""
-    xy, _, slopes = keypoint_geometry(keypoints)
-    return np.column_stack([xy, slopes])
-
-
-def _back_project(camera: LightFieldCamera, obs: np.ndarray) -> np.ndarray:
-    """3-D points (N, 3) of observations (x, y, slope); NaN at or beyond infinity."""
-    return camera.back_project(obs[:, :2], camera.depth(obs[:, 2]))
 
 
 def _rotation(rvec: np.ndarray) -> np.ndarray:
@@ -573,7 +440,7 @@ def observation_ransac(obs1: np.ndarray, obs2: np.ndarray, camera1: LightFieldCa
     obs1, obs2 = np.asarray(obs1, np.float64), np.asarray(obs2, np.float64)
     n = len(obs1)
     s = np.broadcast_to(np.asarray(sigma, np.float64), (n, 2))
-    X1, X2 = _back_project(camera1, obs1), _back_project(camera2, obs2)
+    X1, X2 = back_project(camera1, obs1), back_project(camera2, obs2)
     usable = np.flatnonzero(np.isfinite(X1).all(axis=1) & np.isfinite(X2).all(axis=1))
     if len(usable) < MIN_MATCHES:
         raise PoseEstimationError(f"{len(usable)} matches with a depth in both captures; expected "
@@ -834,7 +701,7 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
     q = np.array([m.queryIdx for m in matches], int)
     tr = np.array([m.trainIdx for m in matches], int)
     o1, o2 = obs1[q].reshape(-1, 3), obs2[tr].reshape(-1, 3)
-    X1, X2 = _back_project(camera1, o1), _back_project(camera2, o2)
+    X1, X2 = back_project(camera1, o1), back_project(camera2, o2)
     finite = np.isfinite(X1).all(axis=1) & np.isfinite(X2).all(axis=1)
     if finite.sum() < MIN_MATCHES:
         raise PoseEstimationError(f"{int(finite.sum())} putative matches with a depth in both "
@@ -870,3 +737,30 @@ def estimate_relative_pose(keypoints1: Sequence[cv2.KeyPoint], descriptors1: np.
     if return_details:
         return pose.rotation, pose.translation, inlier_matches, pose
     return pose.rotation, pose.translation, inlier_matches
+
+
+__all__ = [
+    "check_seed",
+    "estimate_relative_pose",
+    "guided_matches",
+    "observation_ransac",
+    "observations",
+    "ransac_pose",
+    "refine_relative_pose",
+    "translation_length_sigma",
+    "CHI2_INLIER",
+    "GUIDED_ROUNDS",
+    "MAX_TRANSFER_VARIANCE",
+    "MIN_MATCHES",
+    "NoiseModel",
+    "PoseEstimationError",
+    "RANSAC_BATCH",
+    "RANSAC_CHANCE_FACTOR",
+    "RANSAC_CHANCE_TRIALS",
+    "RANSAC_LOCAL_POOL",
+    "RANSAC_LOCAL_ROUNDS",
+    "RANSAC_MAX_HYPOTHESES",
+    "RANSAC_SIGMA",
+    "RelativePose",
+    "SIGMA_FLOOR",
+]

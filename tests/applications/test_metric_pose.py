@@ -760,7 +760,7 @@ def test_transfer_distance_of_a_point_in_capture_2s_image_plane_is_no_match():
     # A pose that puts a point almost in capture 2's image plane predicts it with a
     # variance of ~1e32 px^2: numpy's solve raised "Singular matrix" out of
     # estimate_relative_pose (a benchmark pair, 9x9 views, noise 1e-3). Now: no match.
-    from liff.pose import _transfer_distances
+    from liff.pose.ransac import _transfer_distances
 
     camera = liff.LightFieldCamera(300.0, 0.04, (100.0, 100.0))
     obs1 = np.array([[100.0, 100.0, 2.0], [120.0, 90.0, 1.0]])

@@ -9,7 +9,8 @@ import pytest
 
 import liff
 from liff import _bundle, _rigid
-from liff.pose import CHI2_INLIER, _transfer_distances
+from liff.pose import CHI2_INLIER
+from liff.pose.ransac import _transfer_distances
 from liff.pose.refine import _Problem
 
 CAMERA = liff.LightFieldCamera(400.0, 0.05, (200.0, 150.0), 5.0)

@@ -33,8 +33,8 @@ RANSAC_CHANCE_FACTOR = 1.5
 
 
 def transfer(obs1: np.ndarray, sigma1: np.ndarray, camera1: LightFieldCamera,
-              camera2: LightFieldCamera, rotation: np.ndarray, translation: np.ndarray,
-              covariance: bool = True):
+             camera2: LightFieldCamera, rotation: np.ndarray, translation: np.ndarray,
+             covariance: bool = True):
     """Where capture 2 sees capture 1's features under a pose, and how uncertain that is.
 
     ``rotation`` (..., 3, 3) and ``translation`` (..., 3) may hold a batch of poses.

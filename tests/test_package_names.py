@@ -28,9 +28,20 @@ HLOC_NAMES = [
     "match_scores", "names_to_pair", "updated", "write_features", "write_matches",
     "grey_uint8_image", "keypoints_to_colmap",
 ]
+# What ``liff.pose`` offered as one module (main at 3cee258, before the split into a
+# package): every name it defined (not those it imported: cv2, numpy, typing, ...).
+POSE_NAMES = [
+    "CHI2_INLIER", "GUIDED_ROUNDS", "MAX_TRANSFER_VARIANCE", "MIN_MATCHES", "NoiseModel",
+    "PoseEstimationError", "RANSAC_BATCH", "RANSAC_CHANCE_FACTOR", "RANSAC_CHANCE_TRIALS",
+    "RANSAC_LOCAL_POOL", "RANSAC_LOCAL_ROUNDS", "RANSAC_MAX_HYPOTHESES", "RANSAC_SIGMA",
+    "RelativePose", "SIGMA_FLOOR", "check_seed", "estimate_relative_pose", "guided_matches",
+    "observation_ransac", "observations", "ransac_pose", "refine_relative_pose",
+    "translation_length_sigma",
+]
 
 
-@pytest.mark.parametrize("module, names", [("liff.colmap", COLMAP_NAMES), ("liff.hloc", HLOC_NAMES)])
+@pytest.mark.parametrize("module, names", [("liff.colmap", COLMAP_NAMES), ("liff.hloc", HLOC_NAMES),
+                                           ("liff.pose", POSE_NAMES)])
 def test_public_names_are_kept(module, names):
     """Every public name of the module as it was is still importable from it."""
     imported = importlib.import_module(module)
@@ -45,6 +56,13 @@ def test_colmap_all_is_its_public_names():
     import liff.colmap
 
     assert sorted(liff.colmap.__all__) == sorted(COLMAP_NAMES)
+
+
+def test_pose_all_is_its_public_names():
+    """``from liff.pose import *`` gives what the module gave (its own names only)."""
+    import liff.pose
+
+    assert sorted(liff.pose.__all__) == sorted(POSE_NAMES)
 
 
 # --- no private name across modules --------------------------------------------------

@@ -1,7 +1,7 @@
 """Levenberg-Marquardt for the two-capture bundle adjustment of :mod:`liff.pose`, with the
 points eliminated by the Schur complement.
 
-The problem (:class:`liff.pose._Problem`) has 6 pose parameters and 3 per match, and
+The problem (:class:`liff.pose.refine._Problem`) has 6 pose parameters and 3 per match, and
 each match's 6 residuals depend only on the pose and its own point, so the normal
 equations are an arrow matrix: a 6 x 6 pose block U, a 3 x 3 block V_i per point and
 6 x 3 couplings W_i. Eliminating the points (the Schur complement, as in every bundle
@@ -61,7 +61,7 @@ def solve(problem, params0: np.ndarray, loss: str = "linear", f_scale: float = 3
 
     Parameters
     ----------
-    problem : liff.pose._Problem
+    problem : liff.pose.refine._Problem
         ``residuals(params)`` (n, 6) and ``blocks(params)``: Jacobians (n, 6, 6) on the
         pose and (n, 6, 3) on each match's point.
     params0 : ndarray, shape (6 + 3n,)

@@ -33,7 +33,7 @@ import numpy as np
 #: a point with p_z at or below this (capture 2's image plane or behind it) is not seen
 MIN_DEPTH = 1e-9
 #: a prediction whose covariance has an entry above this (px^2, or (px/view)^2) is no
-#: prediction: its match is not an inlier (as :func:`liff.pose._transfer_distances`)
+#: prediction: its match is not an inlier (as :func:`liff.pose.ransac._transfer_distances`)
 MAX_VARIANCE = 1e12
 #: the residual of a match whose point a pose puts behind capture 2, in the local fit
 #: (as SciPy's least_squares saw it before: far off, no gradient)

@@ -345,14 +345,15 @@ def test_ransac_scores_in_the_observations_where_far_points_are_noisy():
     # fewer of the right matches here (36 of 40; COLMAP's kept 37) and its pose is
     # 2.8x worse (COLMAP's, not the least-squares fit of its inliers, 27x); scored by the
     # observations, RANSAC keeps all 40 and no wrong ones.
-    from liff.pose import _back_project, observation_ransac, ransac_pose
+    from liff.pose import observation_ransac, ransac_pose
+    from liff.pose.model import back_project
 
     camera = liff.LightFieldCamera(400.0, 0.05, (200.0, 150.0))
     obs1, obs2, R_true, t_true = synthetic_observations(camera, 40, 60, 0.2, 0.02, seed=3)
     R, t, inliers = observation_ransac(obs1, obs2, camera, camera, seed=0)
     assert inliers[:40].sum() >= 36 and inliers[40:].sum() <= 1
     assert np.linalg.norm(t - t_true) <= 0.01 * np.linalg.norm(t_true)
-    X1, X2 = _back_project(camera, obs1), _back_project(camera, obs2)
+    X1, X2 = back_project(camera, obs1), back_project(camera, obs2)
     threshold = 0.03 * np.median(np.concatenate([X1[:, 2], X2[:, 2]]))
     R3, t3, inliers3 = ransac_pose(X1, X2, threshold)
     assert inliers3[:40].sum() < inliers[:40].sum()
@@ -759,7 +760,7 @@ def test_transfer_distance_of_a_point_in_capture_2s_image_plane_is_no_match():
     # A pose that puts a point almost in capture 2's image plane predicts it with a
     # variance of ~1e32 px^2: numpy's solve raised "Singular matrix" out of
     # estimate_relative_pose (a benchmark pair, 9x9 views, noise 1e-3). Now: no match.
-    from liff.pose import _transfer_distances
+    from liff.pose.ransac import _transfer_distances
 
     camera = liff.LightFieldCamera(300.0, 0.04, (100.0, 100.0))
     obs1 = np.array([[100.0, 100.0, 2.0], [120.0, 90.0, 1.0]])

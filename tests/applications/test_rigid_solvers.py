@@ -9,7 +9,9 @@ import pytest
 
 import liff
 from liff import _bundle, _rigid
-from liff.pose import CHI2_INLIER, _Problem, _transfer_distances
+from liff.pose import CHI2_INLIER
+from liff.pose.ransac import _transfer_distances
+from liff.pose.refine import _Problem
 
 CAMERA = liff.LightFieldCamera(400.0, 0.05, (200.0, 150.0), 5.0)
 
@@ -228,7 +230,7 @@ def test_the_pose_command_does_not_import_pycolmap(tmp_path):
     code = ("import sys, numpy as np, liff, liff.cli.pose\n"
             f"o1, o2 = np.array({obs1.tolist()}), np.array({obs2.tolist()})\n"
             "camera = liff.LightFieldCamera(400.0, 0.05, (200.0, 150.0), 5.0)\n"
-            "X1, X2 = liff.pose._back_project(camera, o1), liff.pose._back_project(camera, o2)\n"
+            "X1, X2 = liff.pose.model.back_project(camera, o1), liff.pose.model.back_project(camera, o2)\n"
             "liff.pose.ransac_pose(X1, X2, 0.1)\n"
             "liff.pose.observation_ransac(o1, o2, camera, camera)\n"
             "print('pycolmap' in sys.modules)\n")

@@ -83,7 +83,12 @@ def known_modules() -> set:
 def layer(module: str) -> int:
     """The layer of ``liff`` or ``liff.X...``: X's, or :data:`FACADE` for the root."""
     parts = module.split(".")
-    return FACADE if len(parts) == 1 else LAYER_OF[parts[1]]
+    if len(parts) == 1:
+        return FACADE
+    if parts[1] not in LAYER_OF:
+        pytest.fail(f"{module}: no layer; add it to LAYERS here and to the layer table of "
+                    "docs/ARCHITECTURE.md")
+    return LAYER_OF[parts[1]]
 
 
 def imports(source: str, module: str, is_package: bool,
@@ -168,8 +173,10 @@ def test_imports_point_down_and_lazy_ones_say_why(path):
 def test_every_module_has_a_layer():
     tops = {module_name(path).split(".")[1] for path in SOURCES if module_name(path) != "liff"}
     tops |= {module_name(path).split(".")[1] for path in PACKAGE.glob("*.pyi")}
-    assert sorted(tops - set(LAYER_OF)) == []
-    assert sorted(set(LAYER_OF) - tops) == []  # (a module gone: its row too)
+    missing, gone = sorted(tops - set(LAYER_OF)), sorted(set(LAYER_OF) - tops)
+    assert not missing, (f"modules without a layer: {missing}; add each to LAYERS here and to "
+                         "the layer table of docs/ARCHITECTURE.md")
+    assert not gone, f"LAYERS names modules that no longer exist: {gone}"
 
 
 def test_the_check_finds_what_it_is_for(tmp_path):

@@ -377,3 +377,36 @@ def test_readme_states_create_with_the_tables_defaults():
 def test_a_path_or_a_ragged_list_is_refused_naming_what_was_expected(given, error, words):
     with pytest.raises(error, match=words):
         liff.LiFF.create().detect(given)
+
+
+@pytest.mark.parametrize("parameter", [p for p in liff.PARAMETERS if p.type is not bool],
+                         ids=lambda p: p.name)
+def test_every_numeric_parameter_has_a_range(parameter):
+    """Step 2 of adding a parameter (liff/parameters.hpp): its range in
+    Parameters::check(). A number no parameter takes (NaN, the most negative int) is
+    refused by create() and by the setter, naming the parameter."""
+    bad = math.nan if parameter.type is float else -2**31
+    with pytest.raises(ValueError, match=parameter.name):
+        liff.LiFF.create(**{parameter.name: bad})
+    with pytest.raises(ValueError, match=parameter.name):
+        getattr(liff.LiFF.create(), "set" + parameter.accessor)(bad)
+
+
+def test_every_field_of_the_slope_range_report_is_bound():
+    """A field added to liff::SlopeRangeReport (liff/liff.hpp) reaches Python: the
+    struct's members are the bound class's attributes (and the stubs test holds those)."""
+    import re
+    from pathlib import Path
+
+    header = (Path(__file__).resolve().parents[2] / "cpp" / "include" / "liff" /
+              "liff.hpp").read_text()
+    body = re.search(r"struct SlopeRangeReport \{(.*?)\n\};", header, re.S).group(1)
+    code = "\n".join(line.split("//")[0] for line in body.splitlines())
+    members = set()
+    for declaration in re.findall(r"([^;{}]+);", code):
+        declaration = re.sub(r"=[^,]*", "", declaration)  # default values
+        names = re.findall(r"(\w+)\s*(?:,|$)", declaration.strip())
+        members |= set(names)
+    bound = {n for n in vars(liff._core.SlopeRangeReport)
+             if not n.startswith("__") and "pybind11" not in n}
+    assert members == bound

@@ -7,17 +7,22 @@
 // (FileStorage), the Python module's keywords, getters, setters and defaults
 // (liff._core.PARAMETERS), the Python create() and the `liff` command's options.
 // Ranges are enforced in one place, Parameters::check() (parameters.cpp).
-// Adding a parameter, every edit (each one a test or the compiler asks for):
+// Adding a parameter, every edit (each one a test or the compiler asks for), in 9 files
+// besides the core's use of it:
 //   1. one X line here (at the end: create()'s positional order is this order);
-//   2. its range in Parameters::check();
+//   2. its range in Parameters::check(), parameters.cpp (tests/detector/
+//      test_feature2d_api.py's test_every_numeric_parameter_has_a_range);
 //   3. its argument in the positional LiFF::create() overload, declared in liff.hpp and
 //      defined in liff.cpp (the definition assigns every table entry by name, so a
-//      missing argument does not compile; cpp/tests/test_api.cpp calls it with the
-//      table in order);
-//   4. its getter and setter in python/liff/_core.pyi (tests/detector/test_feature2d_api.py compares the
-//      stubs with the module) and its keyword in the README's create() signature
-//      (tests/detector/test_feature2d_api.py compares it with the table);
-//   5. its use in the core.
+//      missing argument does not compile), and a custom value in cpp/tests/test_api.cpp's
+//      PositionalCreateTakesTheTablesParametersInTheirOrder (which calls it in order);
+//   4. its getter and setter in python/liff/_core.pyi and its keyword in the README's
+//      create() signature (tests/detector/test_feature2d_api.py compares both);
+//   5. its default, custom value and accessor in tests/detector/test_feature2d_api.py's
+//      DEFAULTS, CUSTOM and ACCESSOR (golden values: a changed table fails them), and the
+//      parameter count in its message test; a value in tests/cli/
+//      test_subcommands_end_to_end.py's `given` (the `liff detect` option);
+//   6. its use in the core.
 #pragma once
 
 #include <opencv2/core.hpp>

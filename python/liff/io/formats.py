@@ -16,6 +16,7 @@ tests/io/test_format_registry.py fails for a reader module that has none.
 
 from __future__ import annotations
 
+import argparse
 import fnmatch
 import os
 from dataclasses import dataclass, field
@@ -69,53 +70,35 @@ class ReaderOption:
         return " ".join([self.flag] + [str(v) for v in values])
 
 
-def lenslet_size(text: str) -> int:
-    """``--lenslet``'s type: a whole number >= 2 (argparse.ArgumentTypeError naming the
-    value and what was expected: a lenslet of one pixel holds one view)."""
-    import argparse
-
+def _whole_number(text: str, low: int, high: Optional[int], expected: str) -> int:
+    """``text`` as a whole number in [low, high] (no upper bound for None), else an
+    argparse.ArgumentTypeError naming the value and ``expected``."""
     try:
-        n = int(text)
+        n: Optional[int] = int(text)
     except ValueError:
         n = None
-    if n is None or n < 2:
-        raise argparse.ArgumentTypeError(
-            f"{text}; expected a lenslet size N >= 2 pixels (each lenslet holds N x N views; 1 "
-            "is an ordinary image), e.g. 14 for the Stanford Lytro archive")
+    if n is None or n < low or (high is not None and n > high):
+        raise argparse.ArgumentTypeError(f"{text}; expected {expected}")
     return n
 
 
-def views_kept(text: str) -> int:
-    """``--keep-views``' type: a whole number >= 1 of centre views kept on each axis
-    (argparse.ArgumentTypeError naming the value and what was expected)."""
-    import argparse
+def lenslet_size(text: str) -> int:
+    """``--lenslet``'s type: a whole number >= 2 (a lenslet of one pixel holds one view)."""
+    return _whole_number(text, 2, None, "a lenslet size N >= 2 pixels (each lenslet holds N x "
+                         "N views; 1 is an ordinary image), e.g. 14 for the Stanford Lytro archive")
 
-    try:
-        k = int(text)
-    except ValueError:
-        k = None
-    if k is None or k < 1:
-        raise argparse.ArgumentTypeError(
-            f"{text}; expected a whole number K >= 1 of centre views to keep on each axis, "
-            "e.g. 11 of a Lytro's 14")
-    return k
+
+def views_kept(text: str) -> int:
+    """``--keep-views``' type: a whole number >= 1 of centre views kept on each axis."""
+    return _whole_number(text, 1, None, "a whole number K >= 1 of centre views to keep on each "
+                         "axis, e.g. 11 of a Lytro's 14")
 
 
 def bits(text: str) -> int:
     """``--bit-depth``'s type: a whole number of bits from 1 to 16, as
-    :func:`liff.io.scale_bit_depth` takes (argparse.ArgumentTypeError naming the value
-    and what was expected)."""
-    import argparse
-
-    try:
-        b = int(text)
-    except ValueError:
-        b = None
-    if b is None or not 1 <= b <= 16:
-        raise argparse.ArgumentTypeError(
-            f"{text}; expected a whole number of bits B from 1 to 16 (at most 8 for 8-bit "
-            "images), e.g. 12 for 12-bit sensor data in 16-bit files")
-    return b
+    :func:`liff.io.scale_bit_depth` takes."""
+    return _whole_number(text, 1, 16, "a whole number of bits B from 1 to 16 (at most 8 for "
+                         "8-bit images), e.g. 12 for 12-bit sensor data in 16-bit files")
 
 
 #: every reader option, by keyword; ``bit_depth`` applies to every format

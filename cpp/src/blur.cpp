@@ -47,8 +47,10 @@ constexpr int kVectors = 4;
 // out[x] = k_0 c(x) + sum_{i=1..r} k_i (a_i(x) + b_i(x)), for x in [0, width), where
 // c = rows[r], a_i = rows[r - i], b_i = rows[r + i] (for the horizontal pass, rows
 // are one padded row at offsets -r..r). Every x adds in the same order, in the vector
-// body and the scalar tail alike, and without fused multiply-adds, so a result does
-// not depend on where a pixel falls, on the split into stripes, or on the CPU.
+// body and the scalar tail alike, each k_i (a + b) fused into the sum where the build
+// has FMA (x86-64-v3 and v4) and not in the baseline build, so a result does not depend
+// on where a pixel falls or on the split into stripes; on the CPU only as far as it has
+// FMA or not (docs/CONVENTIONS.md).
 // With `dog`, also dog[x] = out[x] - before[x] (the DoG of two consecutive Gaussians),
 // from the sum still in a register: a separate pass would load `out` again.
 LIFF_FMA_LOOP void symmetricTaps(const float* const* rows, const float* taps, int radius,

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 
 from . import _core
-from ._warnings import SlopeRangeWarning
+from ._warnings import LiffWarning, SlopeRangeWarning
 from .keypoint_rows import KeyPoints, keypoints_to_rows, rows_to_keypoints
 
 RANGE_END_SHARE: float = _core.RANGE_END_SHARE
@@ -111,7 +111,22 @@ def _as_light_field(lf) -> np.ndarray:
     from .io.intensity import check_intensity
 
     check_intensity(lf, stacklevel=4)
+    _check_axis_order(lf)
     return lf
+
+
+def _check_axis_order(lf: np.ndarray) -> None:
+    """Warns (LiffWarning) when a light field has more views than pixels per view along
+    both axes: real captures never do, an array in (V, U, T, S) order does (it detects
+    nothing in views of a few pixels, silently otherwise)."""
+    if lf.ndim not in (4, 5):
+        return
+    T, S, V, U = lf.shape[:4]
+    if V < T and U < S:
+        warnings.warn(f"light field has shape {lf.shape}: {T}x{S} views of {U}x{V} pixels, more "
+                      "views than pixels per view along both axes; check the axis order: "
+                      "expected (T, S, V, U[, C]) = (view row, view column, pixel row, pixel "
+                      "column[, channel])", LiffWarning, stacklevel=4)
 
 
 def as_read_in_place(lf: np.ndarray) -> np.ndarray:

@@ -281,3 +281,31 @@ def test_a_hand_set_range_too_narrow_for_distinct_slices_is_refused(first):
     with pytest.raises(ValueError, match="at least 1/65536 px per view step apart"):
         liff.LiFF.create(firstSlope=first, lastSlope=0.0).detectAndCompute(lf)
     liff.LiFF.create(firstSlope=first, lastSlope=0.0, numSlopes=1).detectAndCompute(lf)
+
+
+def test_views_smaller_than_the_view_grid_warn_of_the_axis_order():
+    """An array in (V, U, T, S) order (64 x 64 "views" of 5 x 5 pixels) detects nothing;
+    it warns, naming the expected order, where it used to return no features silently.
+    Real light fields (more pixels than views per axis) do not warn."""
+    swapped = np.random.default_rng(0).random((64, 64, 5, 5)).astype(np.float32)
+    with pytest.warns(liff.LiffWarning, match=r"check the axis order: expected \(T, S, V, U"):
+        liff.LiFF.create().detect(swapped)
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        liff.LiFF.create().detect(np.random.default_rng(0).random((5, 5, 64, 64)).astype(np.float32))
+    assert not [w for w in caught if "axis order" in str(w.message)]
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf])
+def test_a_non_finite_light_field_is_refused_without_numpy_warnings(value):
+    """NaN and infinity are the core's to refuse (naming the view and pixel); the
+    intensity check before it says nothing of its own (numpy's "invalid value" warning
+    from its percentiles of infinities leaked before)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(ValueError, match="NaN or infinite"):
+            liff.LiFF.create().detect(np.full((3, 3, 32, 32), value, np.float32))

@@ -85,7 +85,8 @@ def _off_scale(array: np.ndarray) -> bool:
     channels, weighted = _channels(array)
     if weighted:
         view = view[..., :channels - 1]
-    quarter, median = np.percentile(view, [25, 50])
+    with np.errstate(invalid="ignore"):  # NaN (refused by the core, naming it) is no scale
+        quarter, median = np.percentile(view, [25, 50])
     return bool(median > FLOAT_MEDIAN_HIGH or quarter < 0)
 
 

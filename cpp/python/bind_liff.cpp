@@ -125,9 +125,11 @@ void BindLiFF(py::module_& m) {
       .def_readonly("automaticRange", &SlopeRangeReport::automaticRange,
                     "Whether firstSlope = -inf and lastSlope = +inf.")
       .def_readonly("automaticReach", &SlopeRangeReport::automaticReach,
-                    "Largest |slope| the automatic range considers, min(V, U) / (4 (max(T, S) "
-                    "- 1)); NaN with a hand-set range or no survey (one or two views along the "
-                    "longer axis).")
+                    "Largest |slope| the automatic range considers (docs/SLOPES.md, \"Bound\"); "
+                    "NaN with a hand-set range or no survey (one or two views along the longer "
+                    "axis).")
+      .def_readonly("structureBeyondReach", &SlopeRangeReport::structureBeyondReach,
+                    "The survey saw structure at or beyond +-automaticReach (not considered).")
       .def_readonly("surveyFoundNothing", &SlopeRangeReport::surveyFoundNothing,
                     "The automatic range's survey found no structure: [-1, 1] was searched.")
       .def_readonly("featuresFound", &SlopeRangeReport::featuresFound,

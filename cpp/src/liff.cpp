@@ -247,6 +247,7 @@ SlopeRangeReport LiFF_Impl::planReport(const Parameters& parameters, const Light
   if (report.automaticRange && detail::surveyed(lf.T, lf.S))
     report.automaticReach = detail::largestSlope(lf.T, lf.S, lf.V, lf.U);
   report.surveyFoundNothing = plan.surveyFoundNothing;
+  report.structureBeyondReach = plan.structureBeyondReach;
   return report;
 }
 

@@ -27,6 +27,8 @@ struct SlopePlan {
   double step = 0;  // 0 for a single slice
   /// An automatic range whose survey found nothing: the paper's [-1, 1] (cut by a bound).
   bool surveyFoundNothing = false;
+  /// An automatic range whose survey saw structure at or beyond largestSlope.
+  bool structureBeyondReach = false;
   /// Interpolation blur (view pixels^2, along x and y) every slice is topped up to: the
   /// largest any slice of the plan's grid carries (see interpolationVariance), so that
   /// all slices are equally sharp whichever of them a call builds.

@@ -141,11 +141,12 @@ std::vector<double> surveyLevel(const LightField& small, int factor, const std::
 // The plane sweep's slope intervals (full-resolution slopes within [lo, hi]) on `small`,
 // the light field decimated `factor` times; a pixel votes only where LiFF's pre-test
 // could keep its DoG response.
-SlopeIntervals textureSlopes(const LightField& small, int factor, double lo, double hi,
-                             const Parameters& p) {
-  const float minResponse = float(kPreThresholdShare * p.contrastThreshold / p.nOctaveLayers);
-  SlopeIntervals found = sweepSlopes(small, lo / factor, hi / factor, minResponse);
-  for (auto& [a, b] : found) {
+SweptSlopes textureSlopes(const LightField& small, int factor, double lo, double hi,
+                          const Parameters& p) {
+  const float featureResponse = float(p.contrastThreshold / p.nOctaveLayers);
+  SweptSlopes found = sweepSlopes(small, lo / factor, hi / factor,
+                                  float(kPreThresholdShare) * featureResponse, featureResponse);
+  for (auto& [a, b] : found.intervals) {
     a *= factor;
     b *= factor;
   }
@@ -208,8 +209,12 @@ double sliceSpacing(int T, int S) {
 bool surveyed(int T, int S) { return std::max(T, S) >= 3; }
 
 double largestSlope(int T, int S, int V, int U) {
-  const int n = std::max(T, S);
-  return n > 1 ? std::min(V, U) / (4.0 * (n - 1)) : 0.0;
+  double reach = HUGE_VAL;
+  for (const auto& [n, side] : {std::make_pair(T, V), std::make_pair(S, U)})
+    if (n > 1)
+      reach = std::min(reach, std::max(side / (4.0 * (n - 1)),
+                                       std::min(side / (2.0 * (n - 1)), kPaperRange)));
+  return std::isfinite(reach) ? reach : 0.0;
 }
 
 double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope, int layers) {
@@ -377,8 +382,11 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
   std::vector<LightField> levels{std::move(finestLevel)};
   for (int f = finest * 2; f <= coarsest; f *= 2) levels.push_back(decimate(levels.back(), 2));
   const SlopeIntervals all{{std::max(lo, -reach), std::min(hi, reach)}};
-  const SlopeIntervals textures =
-      textureSlopes(sweepLevel, sweepFactor, all[0].first, all[0].second, p);
+  const SweptSlopes swept = textureSlopes(sweepLevel, sweepFactor, all[0].first, all[0].second, p);
+  const SlopeIntervals& textures = swept.intervals;
+  // Structure at an end of the sweep that is the reach, not a bound given.
+  const bool beyondReach =
+      (swept.beyondLow && -reach > lo) || (swept.beyondHigh && reach < hi);
   SlopeSurvey survey = surveyLevels(levels, finest, unit, all, textures, p, lo, hi, batch);
   if (survey.slopes.empty() && textures.empty()) {
     // Nothing at all, in a light field that need not be blank: decimation weakens fine
@@ -391,6 +399,7 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
     survey = surveyLevels(levels, finest, unit, all, textures, weaker, lo, hi, batch);
     survey.levels += runs;
   }
+  survey.beyondReach = beyondReach;
   return survey;
 }
 
@@ -472,6 +481,7 @@ SlopePlan automaticPlan(const LightField& lf, const Parameters& p, int batch) {
     plan = countedPlan(p.numSlopes, a, b, !(a <= lo + 1e-9), !(b >= hi - 1e-9), unit, lf.T, lf.S);
   }
   plan.surveyFoundNothing = survey.levels > 0 && survey.slopes.empty() && survey.textures.empty();
+  plan.structureBeyondReach = survey.beyondReach;
   return plan;
 }
 

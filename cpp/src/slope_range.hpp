@@ -23,9 +23,14 @@ double sliceSpacing(int T, int S);
 /// longer axis (one view has one slice; two get a fixed narrow range, automaticPlan).
 bool surveyed(int T, int S);
 
-/// Largest |slope| the automatic range considers, min(V, U) / (4 (max(T, S) - 1)): the
-/// two outermost views then differ by a quarter of the smaller view side; beyond it too
-/// little of the views overlaps to focus anything.
+/// Largest |slope| the automatic range considers: the least over the axes with several
+/// views (n views along it, views `side` pixels along it) of
+/// max(side / (4 (n - 1)), min(side / (2 (n - 1)), 1)). The two outermost views then differ
+/// by a quarter of the view, beyond which too little of the views overlaps to focus
+/// anything; or, where that is under the paper's [-1, 1] (long rows of views, small
+/// views), by up to half of it, so that the paper's range is considered while the
+/// central half of every view is seen by all views. Only the axes with parallax count:
+/// a single row of views is bounded by the views' width alone.
 double largestSlope(int T, int S, int V, int U);
 
 /// Share of the views' energy that adds up coherently at a keypoint: with b_v the
@@ -56,6 +61,9 @@ struct SlopeSurvey {
   /// Slope intervals of the plane sweep (sweepSlopes): textured structure, also where it
   /// is too fine for the decimated levels.
   SlopeIntervals textures;
+  /// The sweep saw structure at or beyond +-largestSlope (an end of the range it swept
+  /// that is not a finite bound given): slopes the automatic range does not consider.
+  bool beyondReach = false;
 };
 
 /// Runs the pre-pass: LiFF's own detection (parameters `p`) on the light field

@@ -38,8 +38,21 @@ constexpr int kSweepSlopesPerGroup = 16;
 /// Rows of the votes per task of folding a group's costs into them.
 constexpr int kSweepRowsPerBand = 16;
 /// A slope counts when its votes cover this share of the view's pixels (a 9 x 9 patch of
-/// a 128 x 128 view): a layer large enough to hold features, not scattered edge votes.
+/// a 128 x 128 view): a layer large enough to hold features, not scattered edge votes...
 constexpr double kMinVoteShare = 0.005;
+/// ...or when votes where LiFF's detection threshold is reached gather in one place: a
+/// small feature seen alike by the views, however small its share of a large view. Votes
+/// are counted per cell of kVoteCell x kVoteCell pixels; a slope counts where, in a block
+/// of 2 x 2 cells, it holds the most of its neighbouring slopes' votes and those three
+/// slopes (1.5 pixels of parallax at the farthest view) hold at least kMinClusterVotes: a
+/// 4 x 4 patch of the block's 16 x 16, which scattered edge and noise votes (a few per
+/// slope in a whole view) do not reach...
+constexpr int kVoteCell = 8;
+constexpr int kMinClusterVotes = 16;
+/// ...unless a slope within this many sweep slopes (one pixel of parallax at the farthest
+/// view) counts by its share: such a cluster is that layer's votes spread over slopes.
+constexpr int kClusterLayerGap = 2;
+static_assert(kSweepRowsPerBand % kVoteCell == 0, "a band holds whole rows of cells");
 
 // The view's values, with NaN where its weight (alpha) is under half the largest, so
 // that no window touching an invalid sample votes.
@@ -333,7 +346,8 @@ std::vector<bool> sweptViews(int T, int S) {
   return swept;
 }
 
-SlopeIntervals sweepSlopes(const LightField& lf, double lo, double hi, float minResponse) {
+SweptSlopes sweepSlopes(const LightField& lf, double lo, double hi, float minResponse,
+                        float featureResponse) {
   const std::vector<Compared> views = comparedViews(lf);
   if (views.empty() || !(lo <= hi)) return {};
   // Half a pixel of parallax at the farthest compared view between neighbouring slopes:
@@ -351,36 +365,75 @@ SlopeIntervals sweepSlopes(const LightField& lf, double lo, double hi, float min
   const cv::Mat texture = windowTexture(reference), response = windowResponse(reference);
   // Votes of the pixels that saw at least half the slopes (their best is a choice among
   // many), whose best is clearly better than their typical cost, whose window is
-  // textured well above that best's residual, and where LiFF could find a feature.
-  // Counted per band of rows in parallel, then added up (integers: in any order).
+  // textured well above that best's residual, and where LiFF could find a feature;
+  // counted per cell and slope, those where LiFF's detection threshold is reached also
+  // apart (each band's rows of cells by one task: integers, the same in any order).
   const float compared = float(views.size());
   const int bands = (lf.V + kSweepRowsPerBand - 1) / kSweepRowsPerBand;
-  std::vector<std::vector<int>> bandVotes(bands, std::vector<int>(n, 0));
+  const int cellsX = (lf.U + kVoteCell - 1) / kVoteCell, cellsY = (lf.V + kVoteCell - 1) / kVoteCell;
+  const size_t cellSlopes = size_t(cellsX) * cellsY * n;  // [cell row][cell column][slope]
+  std::vector<int> cellVotes(cellSlopes, 0), strongVotes(cellSlopes, 0);
+  auto at = [&](std::vector<int>& counts, int y, int x) {
+    return counts.data() + (size_t(y / kVoteCell) * cellsX + x / kVoteCell) * n;
+  };
   parallelFor("survey plane sweep", cv::Range(0, bands), [&](const cv::Range& range) {
     for (int band = range.start; band < range.end; ++band)
       for (int y = band * kSweepRowsPerBand; y < std::min(lf.V, (band + 1) * kSweepRowsPerBand); ++y)
         for (int x = 0; x < lf.U; ++x) {
           const int count = all.count.at<int>(y, x);
           if (count < std::max(3, n / 2)) continue;
-          const float best = all.best.at<float>(y, x);
+          const float best = all.best.at<float>(y, x), dog = response.at<float>(y, x);
           if (best < kConsistency * all.sum.at<float>(y, x) / count &&
               texture.at<float>(y, x) >= kTextureToResidual * best / compared &&
-              response.at<float>(y, x) >= minResponse)
-            ++bandVotes[band][all.index.at<int>(y, x)];
+              dog >= minResponse) {
+            const int k = all.index.at<int>(y, x);
+            ++at(cellVotes, y, x)[k];
+            if (dog >= featureResponse) ++at(strongVotes, y, x)[k];
+          }
         }
   });
   std::vector<int> votes(n, 0);
-  for (const std::vector<int>& counted : bandVotes)
-    for (int k = 0; k < n; ++k) votes[k] += counted[k];
+  for (size_t c = 0; c < cellSlopes; c += n)
+    for (int k = 0; k < n; ++k) votes[k] += cellVotes[c + k];
+  // The slopes whose strong votes gather in a block of 2 x 2 cells (one cell where the
+  // view has a single row or column of them).
+  std::vector<char> clustered(n, 0);
+  std::vector<int> block(n);
+  for (int cy = 0; cy + 1 < std::max(2, cellsY); ++cy)
+    for (int cx = 0; cx + 1 < std::max(2, cellsX); ++cx) {
+      std::fill(block.begin(), block.end(), 0);
+      for (int dy = 0; dy < std::min(2, cellsY); ++dy)
+        for (int dx = 0; dx < std::min(2, cellsX); ++dx) {
+          const int* counted = strongVotes.data() + (size_t(cy + dy) * cellsX + cx + dx) * n;
+          for (int k = 0; k < n; ++k) block[k] += counted[k];
+        }
+      for (int k = 0; k < n; ++k) {
+        const int below = k > 0 ? block[k - 1] : 0, above = k + 1 < n ? block[k + 1] : 0;
+        if (block[k] >= below && block[k] >= above &&
+            below + block[k] + above >= kMinClusterVotes)
+          clustered[k] = 1;
+      }
+    }
+  auto layer = [&](int k) { return k >= 0 && k < n && votes[k] >= kMinVoteShare * lf.V * lf.U; };
+  auto counts = [&](int k) {
+    if (layer(k)) return true;
+    if (!clustered[k]) return false;
+    for (int d = 1; d <= kClusterLayerGap; ++d)
+      if (layer(k - d) || layer(k + d)) return false;  // that layer's own spread
+    return true;
+  };
+  SweptSlopes found;
+  found.beyondLow = counts(0);
+  found.beyondHigh = counts(n - 1);
   // Each slope with enough votes stands for the slopes nearer to it than to its neighbours.
-  SlopeIntervals found;
   for (int k = 1; k + 1 < n; ++k) {
-    if (votes[k] < kMinVoteShare * lf.V * lf.U) continue;
+    if (!counts(k)) continue;
     const double m = double(first + k) * g;
-    if (!found.empty() && found.back().second >= m - 0.5 * g - 1e-9)
-      found.back().second = m + 0.5 * g;
+    SlopeIntervals& intervals = found.intervals;
+    if (!intervals.empty() && intervals.back().second >= m - 0.5 * g - 1e-9)
+      intervals.back().second = m + 0.5 * g;
     else
-      found.emplace_back(m - 0.5 * g, m + 0.5 * g);
+      intervals.emplace_back(m - 0.5 * g, m + 0.5 * g);
   }
   return found;
 }

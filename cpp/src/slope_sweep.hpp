@@ -14,6 +14,14 @@ namespace detail {
 /// order and disjoint.
 using SlopeIntervals = std::vector<std::pair<double, double>>;
 
+/// What the sweep found: its slope intervals, and whether the slope swept beyond each
+/// end of the range (votes not counted in the intervals) gathered enough votes to count:
+/// structure at or beyond that end.
+struct SweptSlopes {
+  SlopeIntervals intervals;
+  bool beyondLow = false, beyondHigh = false;
+};
+
 /// The slopes where textured parts of the scene are photo-consistent across the views,
 /// found by a multi-baseline plane sweep (Okutomi and Kanade 1993; docs/SLOPES.md): the
 /// reference view (T / 2, S / 2) against the outermost views of its row and column, at
@@ -23,11 +31,16 @@ using SlopeIntervals = std::vector<std::pair<double, double>>;
 /// times its mean cost over all slopes, its window's texture is well above that best's
 /// residual (a flat region never votes), and its |DoG| reaches `minResponse` (LiFF's
 /// pre-test threshold: structure LiFF could find). Slopes whose votes cover at least
-/// kMinVoteShare of the view are returned, each as [m - g / 2, m + g / 2], merged where
-/// they touch; one slope beyond each end is swept, its votes not counted (a layer beyond
-/// the range would vote for the end slope). Outer views whose mean weight (alpha) is
+/// kMinVoteShare of the view, or whose votes with a |DoG| of at least `featureResponse`
+/// (LiFF's detection threshold) gather in one place (a small feature: kMinClusterVotes
+/// in a 16 x 16 block, with its neighbouring slopes; not beside a slope counted by its
+/// share), are returned, each as
+/// [m - g / 2, m + g / 2], merged where they touch; one slope beyond each end is swept,
+/// its votes not counted in them (a layer beyond the range would vote for the end slope)
+/// but reported (beyondLow, beyondHigh). Outer views whose mean weight (alpha) is
 /// under half the largest are passed over for the outermost usable ones. `lf` may be decimated: slopes are in its own pixels per view step.
-SlopeIntervals sweepSlopes(const LightField& lf, double lo, double hi, float minResponse);
+SweptSlopes sweepSlopes(const LightField& lf, double lo, double hi, float minResponse,
+                        float featureResponse);
 
 /// The views sweepSlopes reads (T * S flags, LightField layout): the reference view's
 /// row and column, T / 2 and S / 2; the others may be left empty.

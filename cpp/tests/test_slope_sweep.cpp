@@ -2,7 +2,9 @@
 // found at their slopes; flat, noisy or undetectable light fields vote for nothing.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <algorithm>
 #include <vector>
 
 #include "slope_sweep.hpp"
@@ -52,6 +54,14 @@ LightField stripes(int T, int S, const std::vector<double>& slopes, double sigma
   return lf;
 }
 
+// The sweep's intervals with LiFF's default thresholds (pre-test and detection), or
+// `minResponse` for both.
+SlopeIntervals swept(const LightField& lf, double lo, double hi,
+                     float minResponse = kMinResponse) {
+  const float detection = minResponse == kMinResponse ? 2 * kMinResponse : minResponse;
+  return sweepSlopes(lf, lo, hi, minResponse, detection).intervals;
+}
+
 bool covered(const SlopeIntervals& found, double slope) {
   for (const auto& [a, b] : found)
     if (slope >= a - 1e-9 && slope <= b + 1e-9) return true;
@@ -60,7 +70,7 @@ bool covered(const SlopeIntervals& found, double slope) {
 
 TEST(SlopeSweep, FindsEachTexturedLayerAndNothingBetween) {
   const std::vector<double> slopes{-3.0, 0.25, 2.5};
-  const SlopeIntervals found = sweepSlopes(stripes(5, 5, slopes), -8, 8, kMinResponse);
+  const SlopeIntervals found = swept(stripes(5, 5, slopes), -8, 8);
   for (double m : slopes) EXPECT_TRUE(covered(found, m)) << "layer at " << m;
   for (double m : {-1.5, 1.25, 5.0}) EXPECT_FALSE(covered(found, m)) << "nothing at " << m;
   for (const auto& [a, b] : found) EXPECT_LE(b - a, 0.5 + 1e-9);  // a few half-pixel steps
@@ -68,13 +78,13 @@ TEST(SlopeSweep, FindsEachTexturedLayerAndNothingBetween) {
 
 TEST(SlopeSweep, FindsFineTexturesHalfWayBetweenWholePixelShifts) {
   // 1.5 px of parallax per view step: whole-pixel shifts miss a 1 px texture by half a pixel.
-  const SlopeIntervals found = sweepSlopes(stripes(3, 3, {1.5}, 0.8), -6, 6, kMinResponse);
+  const SlopeIntervals found = swept(stripes(3, 3, {1.5}, 0.8), -6, 6);
   EXPECT_TRUE(covered(found, 1.5));
 }
 
 TEST(SlopeSweep, WorksOnARowOrAColumnOfViews) {
   for (const auto& [T, S] : {std::pair{1, 7}, std::pair{7, 1}, std::pair{3, 6}}) {
-    const SlopeIntervals found = sweepSlopes(stripes(T, S, {-1.0}), -4, 4, kMinResponse);
+    const SlopeIntervals found = swept(stripes(T, S, {-1.0}), -4, 4);
     EXPECT_TRUE(covered(found, -1.0)) << T << "x" << S;
   }
 }
@@ -82,7 +92,7 @@ TEST(SlopeSweep, WorksOnARowOrAColumnOfViews) {
 TEST(SlopeSweep, FlatNoisyOrFaintLightFieldsVoteForNothing) {
   LightField flat = stripes(5, 5, {0.0});
   for (cv::Mat& view : flat.views) view.setTo(0.5);
-  EXPECT_TRUE(sweepSlopes(flat, -8, 8, kMinResponse).empty());
+  EXPECT_TRUE(swept(flat, -8, 8).empty());
   LightField noise = flat;
   cv::RNG rng(3);
   for (cv::Mat& view : noise.views) {
@@ -90,22 +100,62 @@ TEST(SlopeSweep, FlatNoisyOrFaintLightFieldsVoteForNothing) {
     rng.fill(n, cv::RNG::NORMAL, 0.f, 0.01f);
     view = view + n;  // a new Mat (flat's views stay flat); independent per view
   }
-  EXPECT_TRUE(sweepSlopes(noise, -8, 8, kMinResponse).empty());
+  EXPECT_TRUE(swept(noise, -8, 8).empty());
   // A texture too faint for LiFF's contrast threshold is not structure LiFF can use.
   LightField faint = stripes(5, 5, {1.0});
   for (cv::Mat& view : faint.views) view = 0.5 + 0.01 * (view - 0.5);
-  EXPECT_TRUE(sweepSlopes(faint, -8, 8, kMinResponse).empty());
-  EXPECT_TRUE(covered(sweepSlopes(faint, -8, 8, 0.f), 1.0));  // contrastThreshold 0: found
+  EXPECT_TRUE(swept(faint, -8, 8).empty());
+  EXPECT_TRUE(covered(swept(faint, -8, 8, 0.f), 1.0));  // contrastThreshold 0: found
 }
 
 TEST(SlopeSweep, OnlySweepsTheSlopesAsked) {
-  const SlopeIntervals found = sweepSlopes(stripes(5, 5, {-3.0, 2.5}), 0, 8, kMinResponse);
+  const SlopeIntervals found = swept(stripes(5, 5, {-3.0, 2.5}), 0, 8);
   EXPECT_TRUE(covered(found, 2.5));
   for (const auto& [a, b] : found) EXPECT_GE(a, -0.25 - 1e-9);
-  EXPECT_TRUE(sweepSlopes(stripes(5, 5, {1.0}), 2, 1, kMinResponse).empty());  // empty range
+  EXPECT_TRUE(swept(stripes(5, 5, {1.0}), 2, 1).empty());  // empty range
   // A layer beyond the range votes for the slope nearest it, which is not taken as one.
-  EXPECT_TRUE(sweepSlopes(stripes(5, 5, {-3.0}), -2.3, 8, kMinResponse).empty());
-  EXPECT_TRUE(covered(sweepSlopes(stripes(5, 5, {-2.25}), -2.3, 8, kMinResponse), -2.25));
+  EXPECT_TRUE(swept(stripes(5, 5, {-3.0}), -2.3, 8).empty());
+  EXPECT_TRUE(covered(swept(stripes(5, 5, {-2.25}), -2.3, 8), -2.25));
+}
+
+// T x S views of `side` pixels: a flat 0.5 with a disk of radius `radius` and contrast
+// 0.3 at (cx, cy) of the centre view, at `slope` (anti-aliased edge), and faint noise.
+LightField disk(int T, int S, int side, double cx, double cy, double radius, double slope) {
+  LightField lf;
+  lf.T = T;
+  lf.S = S;
+  lf.V = lf.U = side;
+  lf.allocate(false);
+  cv::RNG rng(3);
+  for (int t = 0; t < T; ++t)
+    for (int s = 0; s < S; ++s) {
+      cv::Mat& view = lf.views[size_t(t) * S + s];
+      const double x0 = cx - slope * (s - S / 2), y0 = cy - slope * (t - T / 2);
+      for (int y = 0; y < side; ++y)
+        for (int x = 0; x < side; ++x) {
+          const double cover = std::min(1.0, std::max(0.0, radius + 0.5 - std::hypot(x - x0, y - y0)));
+          view.at<float>(y, x) = float(0.5 + 0.3 * cover + rng.gaussian(0.01));
+        }
+    }
+  return lf;
+}
+
+TEST(SlopeSweep, FindsASmallIsolatedFeatureAndSaysWhenStructureLiesBeyondTheRange) {
+  // A disk of radius 3 in a 256 x 256 view: its votes are far under 0.5% of the view
+  // (328 pixels), but they gather in one place.
+  const LightField lf = disk(5, 5, 256, 128.3, 100.6, 3.0, 1.5);
+  const auto within = sweepSlopes(lf, -4, 4, kMinResponse, 2 * kMinResponse);
+  EXPECT_TRUE(covered(within.intervals, 1.5));
+  EXPECT_FALSE(within.beyondLow || within.beyondHigh);
+  for (const auto& [a, b] : within.intervals) EXPECT_NEAR(0.5 * (a + b), 1.5, 0.5);
+  // The range ends short of it: the slope swept beyond the end (1.5) sees it, reported
+  // apart from the intervals.
+  const auto cut = sweepSlopes(lf, -1, 1.45, kMinResponse, 2 * kMinResponse);
+  EXPECT_FALSE(covered(cut.intervals, 1.5));
+  EXPECT_TRUE(cut.beyondHigh);
+  EXPECT_FALSE(cut.beyondLow);
+  // Under LiFF's detection threshold (contrast 0.3 over a threshold of 1): not a feature.
+  EXPECT_TRUE(sweepSlopes(lf, -4, 4, kMinResponse, 1.f).intervals.empty());
 }
 
 TEST(SlopeSweep, IgnoresSamplesWhoseAlphaIsLow) {
@@ -118,7 +168,7 @@ TEST(SlopeSweep, IgnoresSamplesWhoseAlphaIsLow) {
     view.colRange(0, kSide / 2).setTo(0);
     lf.weights.push_back(weight);
   }
-  const SlopeIntervals found = sweepSlopes(lf, -8, 8, kMinResponse);
+  const SlopeIntervals found = swept(lf, -8, 8);
   EXPECT_TRUE(covered(found, 1.0));
   for (const auto& [a, b] : found) EXPECT_LE(b - a, 1.0);
 }

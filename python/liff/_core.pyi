@@ -40,6 +40,7 @@ class SlopeRangeReport:
     automaticRange: bool
     automaticReach: float
     surveyFoundNothing: bool
+    structureBeyondReach: bool
     featuresFound: int
     featuresReturned: int
     featuresAtFirstSlope: int

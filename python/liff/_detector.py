@@ -360,7 +360,9 @@ class LiFF(_core.LiFF):
     def _check_range_ends(self, lf: np.ndarray, rows: np.ndarray, masked: bool = False) -> None:
         """The range warnings, from the core's report of the call
         (:meth:`getSlopeRangeReport`): :meth:`_check_pinned_ends`; with an automatic range
-        and no feature, that slopes beyond the largest one considered, R, are not searched
+        whose survey saw structure at or beyond the largest slope it considers, R, that
+        slopes beyond R are not searched; with an automatic range and no feature, that
+        slopes beyond R are not searched
         (docs/SLOPES.md, "Bound"): where R is small (under SMALL_REACH), the views are
         large enough to survey, no mask was given and the light field is not constant;
         and with an automatic range whose survey found nothing in a light field that is
@@ -371,13 +373,21 @@ class LiFF(_core.LiFF):
             return
         if lf.ndim < 4:  # one view: one slice, no range
             return
+        T, S, V, U = report.T, report.S, report.V, report.U
+        reach = report.automaticReach  # NaN: no survey, nothing to warn of
+        if report.structureBeyondReach:
+            warnings.warn(f"the automatic slope range considers slopes within +-{reach:.2f} "
+                          f"for {T}x{S} views of {U}x{V} (docs/SLOPES.md, 'Bound'), and its "
+                          f"survey saw structure at or beyond that: features there are "
+                          f"missed or reported near +-{reach:.2f} ({len(rows)} features "
+                          "returned); set firstSlope and lastSlope to search beyond",
+                          SlopeRangeWarning, stacklevel=3)
+            return
         if not len(rows):
-            T, S, V, U = report.T, report.S, report.V, report.U
-            reach = report.automaticReach  # NaN: no survey, nothing to warn of
             if reach < SMALL_REACH and min(V, U) >= 64 and not masked and np.ptp(lf) > 0:
                 warnings.warn(f"no features with the automatic slope range, which considers "
-                              f"slopes within +-{reach:.2f} (min(V, U) / (4 (max(T, S) - 1)) "
-                              f"for {T}x{S} views of {U}x{V}); if the scene's slopes reach "
+                              f"slopes within +-{reach:.2f} for {T}x{S} views of {U}x{V} "
+                              "(docs/SLOPES.md, 'Bound'); if the scene's slopes reach "
                               "beyond, set firstSlope and lastSlope",
                               SlopeRangeWarning, stacklevel=3)
                 return

@@ -75,13 +75,17 @@ struct SlopeRangeReport {
   int T = 0, S = 0, V = 0, U = 0;
   /// Whether the range was automatic (firstSlope = -inf and lastSlope = +inf).
   bool automaticRange = false;
-  /// Largest |slope| the automatic range considers, min(V, U) / (4 (max(T, S) - 1)); NaN
-  /// with a hand-set range or where the automatic range runs no survey (one or two views
-  /// along the longer axis).
+  /// Largest |slope| the automatic range considers (docs/SLOPES.md, "Bound": a quarter of
+  /// the view's parallax-axis side over the outermost views' distance, or up to half of it
+  /// to reach the paper's [-1, 1]); NaN with a hand-set range or where the automatic range
+  /// runs no survey (one or two views along the longer axis).
   double automaticReach = std::numeric_limits<double>::quiet_NaN();
   /// The automatic range's survey ran and found no structure: the paper's [-1, 1] was
   /// searched.
   bool surveyFoundNothing = false;
+  /// The automatic range's survey saw structure at or beyond +-automaticReach, which it
+  /// does not consider: slopes there are missed or reported at the reach.
+  bool structureBeyondReach = false;
   /// Features the call found before nfeatures' cut (retainBest) and returned after it.
   int featuresFound = 0, featuresReturned = 0;
   /// Returned features whose slope is the first (last) searched slope where that end is a

@@ -8,6 +8,7 @@ PYBIND11_MODULE(_core, m) {
   m.doc() = "Compiled core of liff (C++17, linked to the system OpenCV).";
   m.attr("SLOPE_SCALE") = liff::kSlopeScale;
   m.attr("RANGE_END_SHARE") = liff::kRangeEndShare;
+  m.attr("SMALL_REACH") = liff::kSmallReach;
 
   // Argument errors from the core become ValueError, a light field too large for the
   // memory limit MemoryError; anything else RuntimeError.

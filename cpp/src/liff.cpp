@@ -22,6 +22,7 @@
 #include "scale_space.hpp"
 #include "slope_plan.hpp"
 #include "slope_range.hpp"
+#include "view_borders.hpp"
 #include "working_memory.hpp"
 
 namespace liff {
@@ -355,6 +356,8 @@ void LiFF_Impl::detectAndCompute(cv::InputArray image, cv::InputArray maskArray,
     return;
   }
   Detections detections = detail::detectInSlices(call, mask, wantDescriptors);
+  // Near the views' borders, features only where the views that see them agree.
+  detail::dropBorderGhosts(lf, parameters.nOctaveLayers, detections);
   detail::sortAndDeduplicate(detections);
   report.featuresFound = int(detections.keypoints.size());
   detail::retainBest(detections, parameters.nfeatures);

@@ -32,10 +32,6 @@ constexpr int kFinestSurveyView = 64;
 constexpr int kSmallestSurveyView = 32;
 /// A finer level searches within this many of the coarser level's spacings of its slopes.
 constexpr double kCandidateReach = 1.0;
-/// Features whose views add up less coherently than minCoherence(n) are ghosts or noise:
-/// halfway between 1 and the coherence chance gives an extremum of noise or texture
-/// among n views, z^2 / (n + z^2) for a z = 5 sigma extreme.
-double minCoherence(int views) { return 0.5 * (1 + 25.0 / (views + 25.0)); }
 /// A slope searched over the whole range counts when it holds more than this many
 /// times the median number of features per slope.
 constexpr double kDensityFactor = 3.0;
@@ -140,12 +136,14 @@ std::vector<double> surveyLevel(const LightField& small, int factor, const std::
 
 // The plane sweep's slope intervals (full-resolution slopes within [lo, hi]) on `small`,
 // the light field decimated `factor` times; a pixel votes only where LiFF's pre-test
-// could keep its DoG response.
+// could keep its DoG response. Swept up to beyondLow below lo and beyondHigh above hi
+// too (full-resolution slopes), to say whether structure lies there.
 SweptSlopes textureSlopes(const LightField& small, int factor, double lo, double hi,
-                          const Parameters& p) {
+                          const Parameters& p, double beyondLow, double beyondHigh) {
   const float featureResponse = float(p.contrastThreshold / p.nOctaveLayers);
   SweptSlopes found = sweepSlopes(small, lo / factor, hi / factor,
-                                  float(kPreThresholdShare) * featureResponse, featureResponse);
+                                  float(kPreThresholdShare) * featureResponse, featureResponse,
+                                  beyondLow / factor, beyondHigh / factor);
   for (auto& [a, b] : found.intervals) {
     a *= factor;
     b *= factor;
@@ -209,15 +207,19 @@ double sliceSpacing(int T, int S) {
 bool surveyed(int T, int S) { return std::max(T, S) >= 3; }
 
 double largestSlope(int T, int S, int V, int U) {
-  double reach = HUGE_VAL;
-  for (const auto& [n, side] : {std::make_pair(T, V), std::make_pair(S, U)})
-    if (n > 1)
-      reach = std::min(reach, std::max(side / (4.0 * (n - 1)),
-                                       std::min(side / (2.0 * (n - 1)), kPaperRange)));
-  return std::isfinite(reach) ? reach : 0.0;
+  const int n = std::max(T, S);
+  if (n < 2) return 0.0;
+  const double quarter = std::min(V, U) / (4.0 * (n - 1));
+  // Half of the view along each axis with parallax (V for the view rows T, U for the
+  // view columns S), the least of them.
+  double half = HUGE_VAL;
+  if (T > 1) half = std::min(half, V / (2.0 * (T - 1)));
+  if (S > 1) half = std::min(half, U / (2.0 * (S - 1)));
+  return std::max(quarter, std::min(half, kPaperRange));
 }
 
-double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope, int layers) {
+double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope, int layers,
+                     bool seeingViewsOnly, const std::vector<bool>* onlyViews) {
   // b_v = sum_q w(q) L_v(p_v + q), w = G(k sigma) - G(sigma) the keypoint's DoG,
   // sampled every sigma (enough for a statistic of smooth Gaussians) within 3 k sigma.
   const float sigma = std::max(0.5f, kp.size * 0.5f);
@@ -236,15 +238,20 @@ double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope,
     }
   const double tc = 0.5 * (lf.T - 1), sc = 0.5 * (lf.S - 1);
   double sum = 0, sumSquares = 0;
-  int used = 0;
+  int used = 0, considered = 0;
   for (int t = 0; t < lf.T; ++t)
     for (int s = 0; s < lf.S; ++s) {
+      if (onlyViews && !(*onlyViews)[size_t(t) * lf.S + s]) continue;
+      ++considered;
       const float x = float(kp.pt.x - slope * (s - sc)), y = float(kp.pt.y - slope * (t - tc));
       // Every view must see the feature: where the shifted views no longer overlap, the
       // slice is an average of fewer views, as sharp at a wrong slope as at the right one,
       // and with two views along an axis most such features are ghosts. Patches that
       // reach past a border sample the replicated border.
-      if (x < 0 || y < 0 || x > lf.U - 1 || y > lf.V - 1) return -1;
+      if (x < 0 || y < 0 || x > lf.U - 1 || y > lf.V - 1) {
+        if (seeingViewsOnly) continue;
+        return -1;
+      }
       const float* view = lf.view(t, s);
       const float* alpha =
           lf.weights.empty() ? nullptr : lf.weights[size_t(t) * lf.S + s].ptr<float>();
@@ -267,7 +274,7 @@ double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope,
       sumSquares += b * b;
       ++used;
     }
-  if (2 * used < lf.T * lf.S || !(sumSquares > 0)) return -1;
+  if (2 * used < considered || !(sumSquares > 0)) return -1;
   return sum * sum / (used * sumSquares);
 }
 
@@ -382,11 +389,17 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
   std::vector<LightField> levels{std::move(finestLevel)};
   for (int f = finest * 2; f <= coarsest; f *= 2) levels.push_back(decimate(levels.back(), 2));
   const SlopeIntervals all{{std::max(lo, -reach), std::min(hi, reach)}};
-  const SweptSlopes swept = textureSlopes(sweepLevel, sweepFactor, all[0].first, all[0].second, p);
+  // Beyond an end that is the reach (not a bound given), where the reach is small, the
+  // sweep looks up to one more paper range (or R, where smaller) further, to say whether
+  // structure lies there; elsewhere (the outermost views overlapping by less than 3/4
+  // beyond R, which scenes seldom reach) one sweep slope further.
+  const double lookBeyond = reach < kSmallReach ? std::min(reach, kPaperRange) : 0.0;
+  const bool lowIsReach = -reach > lo, highIsReach = reach < hi;
+  const SweptSlopes swept =
+      textureSlopes(sweepLevel, sweepFactor, all[0].first, all[0].second, p,
+                    lowIsReach ? lookBeyond : 0, highIsReach ? lookBeyond : 0);
   const SlopeIntervals& textures = swept.intervals;
-  // Structure at an end of the sweep that is the reach, not a bound given.
-  const bool beyondReach =
-      (swept.beyondLow && -reach > lo) || (swept.beyondHigh && reach < hi);
+  const bool beyondReach = (swept.beyondLow && lowIsReach) || (swept.beyondHigh && highIsReach);
   SlopeSurvey survey = surveyLevels(levels, finest, unit, all, textures, p, lo, hi, batch);
   if (survey.slopes.empty() && textures.empty()) {
     // Nothing at all, in a light field that need not be blank: decimation weakens fine

@@ -23,14 +23,13 @@ double sliceSpacing(int T, int S);
 /// longer axis (one view has one slice; two get a fixed narrow range, automaticPlan).
 bool surveyed(int T, int S);
 
-/// Largest |slope| the automatic range considers: the least over the axes with several
-/// views (n views along it, views `side` pixels along it) of
-/// max(side / (4 (n - 1)), min(side / (2 (n - 1)), 1)). The two outermost views then differ
-/// by a quarter of the view, beyond which too little of the views overlaps to focus
-/// anything; or, where that is under the paper's [-1, 1] (long rows of views, small
-/// views), by up to half of it, so that the paper's range is considered while the
-/// central half of every view is seen by all views. Only the axes with parallax count:
-/// a single row of views is bounded by the views' width alone.
+/// Largest |slope| the automatic range considers: min(V, U) / (4 (max(T, S) - 1)), where
+/// the two outermost views differ by a quarter of the smaller view side, beyond which
+/// too little of the views overlaps to focus anything; where that is under the paper's
+/// [-1, 1] (long rows of views, small views), up to 1 while the outermost views along each
+/// axis with parallax still differ by at most half the view along it (side / (2 (n - 1))),
+/// so that the paper's range is considered while the central half of every view is seen
+/// by all views.
 double largestSlope(int T, int S, int V, int U);
 
 /// Share of the views' energy that adds up coherently at a keypoint: with b_v the
@@ -43,7 +42,17 @@ double largestSlope(int T, int S, int V, int U);
 /// and -1 when fewer than half remain. Patches reaching past a border sample the
 /// replicated border.
 /// `keypoint` is in `lf`'s pixels and its slope in `lf`'s pixels per view step.
-double viewCoherence(const LightField& lf, const cv::KeyPoint& keypoint, double slope, int layers);
+/// With `seeingViewsOnly`, the views that do not see the keypoint are left out (as mostly
+/// invalid ones are) instead of giving -1: how the views that see a feature near a
+/// border agree (view_borders.hpp). With `onlyViews` (T * S flags, LightField layout),
+/// only those views are read and counted (the others may be empty).
+double viewCoherence(const LightField& lf, const cv::KeyPoint& keypoint, double slope, int layers,
+                     bool seeingViewsOnly = false, const std::vector<bool>* onlyViews = nullptr);
+
+/// The least coherence of a feature of n views, halfway between 1 and the coherence an
+/// extremum of noise or texture picked among n views reaches, z^2 / (n + z^2) for a
+/// z = 5 sigma extreme: (1 + 25 / (n + 25)) / 2.
+inline double minCoherence(int views) { return 0.5 * (1 + 25.0 / (views + 25.0)); }
 
 /// Bytes of the decimated light fields surveySlopes makes for `lf` (0 when it does not
 /// survey): the plane sweep's views and every level's. They are freed when the survey

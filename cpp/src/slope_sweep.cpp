@@ -1,6 +1,8 @@
 #include "slope_sweep.hpp"
 #include "hot_loop.hpp"
 #include "profile.hpp"
+#include "slope_range.hpp"
+#include "sweep_votes.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -15,21 +17,12 @@ namespace {
 /// Half the side of the window costs are summed over (3 x 3): small, so that a window
 /// on a thin occluder (a bar a few pixels wide) is mostly one layer.
 constexpr int kWindowRadius = 1;
-/// A pixel votes when its best slope costs less than this share of its mean cost: a
-/// texture costs its contrast at wrong slopes and only noise at its own; a flat region
-/// costs noise everywhere (ratio near 1); a window straddling an occlusion edge about
-/// half its mean at either layer's slope.
-constexpr float kConsistency = 0.4f;
-/// ...and when its window's own texture (summed absolute differences of neighbouring
-/// pixels) is this many times its best cost per view: otherwise the low best is that
-/// of a flat window (whose mean cost is raised by structure that crosses it at other
-/// slopes), not a match. Noise alone gives about 2 (two differences per pixel against
-/// one per view); 3 keeps textures only a little above the noise of one view.
-constexpr float kTextureToResidual = 3.f;
 /// Scale (pixels of the swept light field) of the DoG that says whether LiFF could find
 /// a feature at a voting pixel: the finest the sweep's resolution (usually half the
 /// light field's) shows well.
 constexpr double kDogSigma = 1.0;
+/// Layers per octave of that DoG (its two scales 2^(1/3) apart, as LiFF's default).
+constexpr int kDogLayers = 3;
 /// Slopes are summed in this many chunks (merged in order after), whatever the number
 /// of threads.
 constexpr int kSweepChunks = 4;
@@ -37,22 +30,6 @@ constexpr int kSweepChunks = 4;
 constexpr int kSweepSlopesPerGroup = 16;
 /// Rows of the votes per task of folding a group's costs into them.
 constexpr int kSweepRowsPerBand = 16;
-/// A slope counts when its votes cover this share of the view's pixels (a 9 x 9 patch of
-/// a 128 x 128 view): a layer large enough to hold features, not scattered edge votes...
-constexpr double kMinVoteShare = 0.005;
-/// ...or when votes where LiFF's detection threshold is reached gather in one place: a
-/// small feature seen alike by the views, however small its share of a large view. Votes
-/// are counted per cell of kVoteCell x kVoteCell pixels; a slope counts where, in a block
-/// of 2 x 2 cells, it holds the most of its neighbouring slopes' votes and those three
-/// slopes (1.5 pixels of parallax at the farthest view) hold at least kMinClusterVotes: a
-/// 4 x 4 patch of the block's 16 x 16, which scattered edge and noise votes (a few per
-/// slope in a whole view) do not reach...
-constexpr int kVoteCell = 8;
-constexpr int kMinClusterVotes = 16;
-/// ...unless a slope within this many sweep slopes (one pixel of parallax at the farthest
-/// view) counts by its share: such a cluster is that layer's votes spread over slopes.
-constexpr int kClusterLayerGap = 2;
-static_assert(kSweepRowsPerBand % kVoteCell == 0, "a band holds whole rows of cells");
 
 // The view's values, with NaN where its weight (alpha) is under half the largest, so
 // that no window touching an invalid sample votes.
@@ -70,23 +47,6 @@ cv::Mat viewValues(const LightField& lf, int t, int s) {
     }
   return out;
 }
-
-// Per pixel of the reference view, over the slopes one chunk of the sweep covered: the
-// least window cost and its slope index, and the sum and number of window costs.
-struct Votes {
-  cv::Mat best, index, sum, count;  // CV_32F, CV_32S, CV_32F, CV_32S
-  /// Allocated, not yet set: clear() sets rows to no votes.
-  explicit Votes(cv::Size size)
-      : best(size, CV_32F), index(size, CV_32S), sum(size, CV_32F), count(size, CV_32S) {}
-  /// Rows [rowBegin, rowEnd) to no votes: best +inf, index -1, sum and count 0.
-  void clear(int rowBegin, int rowEnd) {
-    const cv::Range rows(rowBegin, rowEnd);
-    best.rowRange(rows).setTo(std::numeric_limits<float>::infinity());
-    index.rowRange(rows).setTo(-1);
-    sum.rowRange(rows).setTo(0);
-    count.rowRange(rows).setTo(0);
-  }
-};
 
 // A view at `offset` view steps from the reference view along one axis (x for a view of
 // the reference's row, y for one of its column).
@@ -297,17 +257,9 @@ Votes sweepAll(const cv::Mat& reference, const std::vector<Compared>& views, lon
   // Merged in chunk order, band by band (each pixel's sums in the same order).
   Votes& all = partial[0];
   parallelFor("survey plane sweep", cv::Range(0, bands), [&](const cv::Range& range) {
-    const cv::Range rows(range.start * kSweepRowsPerBand,
-                         std::min(reference.rows, range.end * kSweepRowsPerBand));
-    for (int c = 1; c < chunks; ++c) {
-      cv::Mat sum = all.sum.rowRange(rows), count = all.count.rowRange(rows);
-      cv::Mat best = all.best.rowRange(rows), index = all.index.rowRange(rows);
-      sum += partial[c].sum.rowRange(rows);
-      count += partial[c].count.rowRange(rows);
-      const cv::Mat better = partial[c].best.rowRange(rows) < best;
-      partial[c].best.rowRange(rows).copyTo(best, better);
-      partial[c].index.rowRange(rows).copyTo(index, better);
-    }
+    const int r0 = range.start * kSweepRowsPerBand;
+    const int r1 = std::min(reference.rows, range.end * kSweepRowsPerBand);
+    for (int c = 1; c < chunks; ++c) all.merge(partial[c], 0, r0, r1);
   });
   return all;
 }
@@ -330,7 +282,7 @@ cv::Mat windowTexture(const cv::Mat& reference) {
 cv::Mat windowResponse(const cv::Mat& reference) {
   cv::Mat fine, coarse, response;
   cv::GaussianBlur(reference, fine, cv::Size(), kDogSigma);
-  cv::GaussianBlur(reference, coarse, cv::Size(), kDogSigma * std::cbrt(2.0));
+  cv::GaussianBlur(reference, coarse, cv::Size(), kDogSigma * std::cbrt(2.0));  // kDogLayers
   response = cv::abs(coarse - fine);
   const int window = 2 * kWindowRadius + 1;
   cv::dilate(response, response, cv::Mat::ones(window, window, CV_8U));
@@ -347,7 +299,7 @@ std::vector<bool> sweptViews(int T, int S) {
 }
 
 SweptSlopes sweepSlopes(const LightField& lf, double lo, double hi, float minResponse,
-                        float featureResponse) {
+                        float featureResponse, double beyondLow, double beyondHigh) {
   const std::vector<Compared> views = comparedViews(lf);
   if (views.empty() || !(lo <= hi)) return {};
   // Half a pixel of parallax at the farthest compared view between neighbouring slopes:
@@ -357,77 +309,74 @@ SweptSlopes sweepSlopes(const LightField& lf, double lo, double hi, float minRes
   const double g = 0.5 / farthest;
   // One slope beyond each end, whose votes do not count: a layer beyond the range would
   // otherwise vote for the end slope, the best it is offered.
-  const long first = long(std::ceil(lo / g - 1e-9)) - 1, last = long(std::floor(hi / g + 1e-9)) + 1;
-  if (last - first < 2) return {};
+  const long firstIn = long(std::ceil(lo / g - 1e-9)), lastIn = long(std::floor(hi / g + 1e-9));
+  if (lastIn < firstIn) return {};
+  const long first = firstIn - 1, last = lastIn + 1;
   const int n = int(last - first + 1);
   const cv::Mat reference = viewValues(lf, lf.T / 2, lf.S / 2);
-  const Votes all = sweepAll(reference, views, first, n, g);
+  const Votes inRange = sweepAll(reference, views, first, n, g);
   const cv::Mat texture = windowTexture(reference), response = windowResponse(reference);
   // Votes of the pixels that saw at least half the slopes (their best is a choice among
-  // many), whose best is clearly better than their typical cost, whose window is
-  // textured well above that best's residual, and where LiFF could find a feature;
-  // counted per cell and slope, those where LiFF's detection threshold is reached also
-  // apart (each band's rows of cells by one task: integers, the same in any order).
-  const float compared = float(views.size());
-  const int bands = (lf.V + kSweepRowsPerBand - 1) / kSweepRowsPerBand;
-  const int cellsX = (lf.U + kVoteCell - 1) / kVoteCell, cellsY = (lf.V + kVoteCell - 1) / kVoteCell;
-  const size_t cellSlopes = size_t(cellsX) * cellsY * n;  // [cell row][cell column][slope]
-  std::vector<int> cellVotes(cellSlopes, 0), strongVotes(cellSlopes, 0);
-  auto at = [&](std::vector<int>& counts, int y, int x) {
-    return counts.data() + (size_t(y / kVoteCell) * cellsX + x / kVoteCell) * n;
+  // many): sweep_votes.hpp.
+  const int minCount = std::max(3, n / 2);
+  auto count = [&](const Votes& votes, int slopes) {
+    return countVotes(votes, slopes, texture, response, int(views.size()), minCount,
+                      minResponse, featureResponse);
   };
-  parallelFor("survey plane sweep", cv::Range(0, bands), [&](const cv::Range& range) {
-    for (int band = range.start; band < range.end; ++band)
-      for (int y = band * kSweepRowsPerBand; y < std::min(lf.V, (band + 1) * kSweepRowsPerBand); ++y)
-        for (int x = 0; x < lf.U; ++x) {
-          const int count = all.count.at<int>(y, x);
-          if (count < std::max(3, n / 2)) continue;
-          const float best = all.best.at<float>(y, x), dog = response.at<float>(y, x);
-          if (best < kConsistency * all.sum.at<float>(y, x) / count &&
-              texture.at<float>(y, x) >= kTextureToResidual * best / compared &&
-              dog >= minResponse) {
-            const int k = all.index.at<int>(y, x);
-            ++at(cellVotes, y, x)[k];
-            if (dog >= featureResponse) ++at(strongVotes, y, x)[k];
-          }
-        }
-  });
-  std::vector<int> votes(n, 0);
-  for (size_t c = 0; c < cellSlopes; c += n)
-    for (int k = 0; k < n; ++k) votes[k] += cellVotes[c + k];
-  // The slopes whose strong votes gather in a block of 2 x 2 cells (one cell where the
-  // view has a single row or column of them).
-  std::vector<char> clustered(n, 0);
-  std::vector<int> block(n);
-  for (int cy = 0; cy + 1 < std::max(2, cellsY); ++cy)
-    for (int cx = 0; cx + 1 < std::max(2, cellsX); ++cx) {
-      std::fill(block.begin(), block.end(), 0);
-      for (int dy = 0; dy < std::min(2, cellsY); ++dy)
-        for (int dx = 0; dx < std::min(2, cellsX); ++dx) {
-          const int* counted = strongVotes.data() + (size_t(cy + dy) * cellsX + cx + dx) * n;
-          for (int k = 0; k < n; ++k) block[k] += counted[k];
-        }
-      for (int k = 0; k < n; ++k) {
-        const int below = k > 0 ? block[k - 1] : 0, above = k + 1 < n ? block[k + 1] : 0;
-        if (block[k] >= below && block[k] >= above &&
-            below + block[k] + above >= kMinClusterVotes)
-          clustered[k] = 1;
+  const VoteCounts counts = count(inRange, n);
+  const Clusters clusters = findClusters(counts);
+  // Whether every view of the reference's row and column agrees at a point at slope
+  // (origin + k) g (viewCoherence, as the survey's features), or within a sweep slope of
+  // it in half steps: a vote's slope is that of its window, and the strongest vote of a
+  // small feature lies on its edge, where a quarter pixel of parallax already matters; a
+  // repeated pattern's alias is a whole period off at the outermost views.
+  const std::vector<bool> rowAndColumn = sweptViews(lf.T, lf.S);
+  int swept = 0;
+  for (bool inRowOrColumn : rowAndColumn) swept += inRowOrColumn;
+  auto agreement = [&](long origin) -> Agreement {
+    return [&, origin](cv::Point point, int k) {
+      const cv::KeyPoint at(cv::Point2f(point), float(2 * kDogSigma));
+      for (int half = -2; half <= 2; ++half) {
+        const double m = (double(origin + k) + 0.5 * half) * g;
+        if (viewCoherence(lf, at, m, kDogLayers, true, &rowAndColumn) >= minCoherence(swept))
+          return true;
       }
-    }
-  auto layer = [&](int k) { return k >= 0 && k < n && votes[k] >= kMinVoteShare * lf.V * lf.U; };
-  auto counts = [&](int k) {
-    if (layer(k)) return true;
-    if (!clustered[k]) return false;
-    for (int d = 1; d <= kClusterLayerGap; ++d)
-      if (layer(k - d) || layer(k + d)) return false;  // that layer's own spread
-    return true;
+      return false;
+    };
   };
   SweptSlopes found;
-  found.beyondLow = counts(0);
-  found.beyondHigh = counts(n - 1);
+  // Beyond each end: the slope next to it, or as far as asked, swept apart and merged
+  // with the range's votes (which stay as they were), so that a pixel votes beyond only
+  // where it matches better there than anywhere in the range.
+  const long below = std::max(1L, long(std::ceil(beyondLow / g - 1e-9)));
+  const long above = std::max(1L, long(std::ceil(beyondHigh / g - 1e-9)));
+  if (below == 1 && above == 1) {
+    found.beyondLow = structureAt(counts, clusters, 0, agreement(first));
+    found.beyondHigh = structureAt(counts, clusters, n - 1, agreement(first));
+  } else {
+    const long wideFirst = firstIn - below, wideLast = lastIn + above;
+    const int wideN = int(wideFirst <= wideLast ? wideLast - wideFirst + 1 : 0);
+    Votes wide(reference.size());
+    wide.clear(0, reference.rows);
+    if (first > wideFirst)
+      wide.merge(sweepAll(reference, views, wideFirst, int(first - wideFirst), g), 0, 0,
+                 reference.rows);
+    wide.merge(inRange, int(first - wideFirst), 0, reference.rows);
+    if (wideLast > last)
+      wide.merge(sweepAll(reference, views, last + 1, int(wideLast - last), g),
+                 int(last + 1 - wideFirst), 0, reference.rows);
+    const VoteCounts wideCounts = count(wide, wideN);
+    const Clusters wideClusters = findClusters(wideCounts);
+    const Agreement wideAgreement = agreement(wideFirst);
+    for (int k = 0; k < int(firstIn - wideFirst) && !found.beyondLow; ++k)
+      found.beyondLow = structureAt(wideCounts, wideClusters, k, wideAgreement);
+    for (int k = wideN - 1; k > int(lastIn - wideFirst) && !found.beyondHigh; --k)
+      found.beyondHigh = structureAt(wideCounts, wideClusters, k, wideAgreement);
+  }
   // Each slope with enough votes stands for the slopes nearer to it than to its neighbours.
+  const Agreement inRangeAgreement = agreement(first);
   for (int k = 1; k + 1 < n; ++k) {
-    if (!counts(k)) continue;
+    if (!slopeCounts(counts, clusters, k, inRangeAgreement)) continue;
     const double m = double(first + k) * g;
     SlopeIntervals& intervals = found.intervals;
     if (!intervals.empty() && intervals.back().second >= m - 0.5 * g - 1e-9)

@@ -35,12 +35,15 @@ struct SweptSlopes {
 /// (LiFF's detection threshold) gather in one place (a small feature: kMinClusterVotes
 /// in a 16 x 16 block, with its neighbouring slopes; not beside a slope counted by its
 /// share), are returned, each as
-/// [m - g / 2, m + g / 2], merged where they touch; one slope beyond each end is swept,
-/// its votes not counted in them (a layer beyond the range would vote for the end slope)
-/// but reported (beyondLow, beyondHigh). Outer views whose mean weight (alpha) is
+/// [m - g / 2, m + g / 2], merged where they touch. Beyond each end the slopes up to
+/// `beyondLow` below lo and `beyondHigh` above hi (at least one slope) are swept too, their
+/// votes not counted in the intervals (a layer beyond the range would vote for the end
+/// slope) but reported (SweptSlopes::beyondLow, beyondHigh) where a layer or cluster
+/// there is seen alike by the reference's row and column (viewCoherence: not a repeated
+/// pattern's alias). Outer views whose mean weight (alpha) is
 /// under half the largest are passed over for the outermost usable ones. `lf` may be decimated: slopes are in its own pixels per view step.
 SweptSlopes sweepSlopes(const LightField& lf, double lo, double hi, float minResponse,
-                        float featureResponse);
+                        float featureResponse, double beyondLow = 0, double beyondHigh = 0);
 
 /// The views sweepSlopes reads (T * S flags, LightField layout): the reference view's
 /// row and column, T / 2 and S / 2; the others may be left empty.

@@ -12,6 +12,7 @@ import numpy as np
 
 SLOPE_SCALE: float
 RANGE_END_SHARE: float
+SMALL_REACH: float
 # liff's own test and benchmark hooks (liff/hooks.hpp; not API): set_profiling(enabled),
 # reset_profile(), stage_seconds(in_loops=False) -> {stage: seconds},
 # set_slice_batch(batch), parallel_loops() -> [(name, wall, [task seconds])],

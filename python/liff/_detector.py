@@ -20,9 +20,10 @@ from .keypoint_rows import KeyPoints, keypoints_to_rows, rows_to_keypoints
 RANGE_END_SHARE: float = _core.RANGE_END_SHARE
 """A hand-set slope range warns when more than this share of features sit at its ends
 (the core's kRangeEndShare, liff/liff.hpp: past it, the core surveys for structure beyond)."""
-SMALL_REACH = 3.0
+SMALL_REACH: float = _core.SMALL_REACH
 """Below this largest automatic slope (pixels per view step), finding no feature is
-worth a warning: scenes often reach beyond it (camera arrays, gantries)."""
+worth a warning: scenes often reach beyond it (camera arrays, gantries; the core's
+kSmallReach, liff/liff.hpp, below which its survey also looks beyond the reach)."""
 
 
 @functools.lru_cache(maxsize=None)

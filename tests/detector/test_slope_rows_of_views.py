@@ -82,8 +82,9 @@ def test_small_isolated_blobs_are_searched_beside_structure_the_survey_finds(sha
 @pytest.mark.parametrize("shape, reach", [
     ((1, 51, 96, 128), 1.0),        # a quarter of 128 over 50 steps is 0.64: up to half
     ((51, 1, 128, 96), 1.0),        # a column: its views' height counts
-    ((1, 51, 400, 401), 401 / 200),  # a quarter already beyond the paper's range
-    ((1, 101, 96, 128), 128 / 200),  # half the view is under the paper's range
+    ((1, 51, 400, 401), 400 / 200),  # a quarter of the shorter side beyond 1: as before
+    ((1, 9, 64, 512), 64 / 32),     # a wide strip: as before (not its long side's 16)
+    ((1, 101, 96, 128), 128 / 200),  # half the view along the row is under 1
     ((9, 9, 96, 128), 96 / 32),     # a grid: the shorter side, as before
     ((5, 9, 100, 100), 100 / 32),   # the axis with more views bounds it
 ])
@@ -96,12 +97,11 @@ def test_the_automatic_reach_counts_the_axes_with_parallax(shape, reach):
     assert d.getSlopeRangeReport().automaticReach == pytest.approx(reach)
 
 
-@pytest.mark.parametrize("beyond", [-2.15, 2.15])
+@pytest.mark.parametrize("beyond", [-2.15, 2.6, -3.0])
 def test_structure_beyond_the_reach_is_warned_of(beyond):
-    """9x9 views of 64x64: R = 2; a disk at +-2.15 lies beyond it, at the slope the sweep
-    sweeps beyond the reach (one eighth of a pixel per view step further), which sees
-    it: the call says so (before: silently missed). Structure far beyond R matches no
-    slope the sweep tries and is not warned of (docs/SLOPES.md, "Bound")."""
+    """9x9 views of 64x64: R = 2; a disk at -2.15 to -3 lies beyond it. Where R is small
+    (under SMALL_REACH) the sweep looks up to min(R, 1) further, sees it, and the call
+    says so (before: silently missed; docs/SLOPES.md, "Bound")."""
     lf, blobs = _row_scene((9, 9, 64, 64), radius=2.0, slopes=[-0.5, 0.5, beyond])
     d = liff.LiFF.create()
     with pytest.warns(liff.SlopeRangeWarning, match=r"within \+-2\.00 .*set firstSlope"):
@@ -116,3 +116,38 @@ def test_structure_within_the_reach_is_not_warned_of():
         warnings.simplefilter("error", liff.SlopeRangeWarning)
         d.detect(lf)
     assert not d.getSlopeRangeReport().structureBeyondReach
+
+
+@pytest.mark.parametrize("shape, slope", [((9, 9, 96, 128), 0.0), ((9, 9, 96, 128), 0.3),
+                                          ((1, 17, 96, 128), -0.6), ((17, 1, 96, 128), -0.6)])
+def test_a_repeated_pattern_is_not_structure_beyond_the_reach(shape, slope):
+    """A grid of dots 12 px apart: the sweep compares the reference with the outermost
+    views only, which the grid matches again at alias slopes (12 px over the outermost
+    offset), at or beyond R. The views of the reference's row and column disagree there,
+    so no warning and no features at the aliases."""
+    T, S, V, U = shape
+    dots = [synthetic.Blob(x + 0.3, y + 0.6, 2.0, slope, 0.3)
+            for x in range(12, U - 10, 12) for y in range(12, V - 10, 12)]
+    lf = synthetic.render_disks(dots, shape, noise_variance=1e-4, seed=1).astype(np.float32)
+    d = liff.LiFF.create()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", liff.SlopeRangeWarning)
+        keypoints = d.detect(lf)
+    assert not d.getSlopeRangeReport().structureBeyondReach
+    assert np.mean(np.abs(liff.keypoint_slopes(keypoints) - slope) < 0.5) > 0.95
+
+
+def test_evenly_spaced_small_disks_on_a_row_are_found_at_their_slopes():
+    """Disks 16 px apart on a row of 1x9 views, slopes -0.8..0.8: the pattern's alias
+    slopes (16 px / 4 views) gave clusters the views do not agree on (before the check:
+    slices at 3.25-4.25, features at 3.4-3.7, 6 of 8 disks, a warning of structure beyond
+    R)."""
+    blobs = [synthetic.Blob(15.5 + 16.1 * i, 12.6, 2.0, float(m), 0.3)
+             for i, m in enumerate(np.linspace(-0.8, 0.8, 8)[:7])]
+    blobs.append(synthetic.Blob(15.5, 83.6, 2.0, 0.8, 0.3))
+    lf = synthetic.render_disks(blobs, (1, 9, 96, 128), noise_variance=1e-4,
+                                seed=1).astype(np.float32)
+    d = liff.LiFF.create()
+    found = _found(d, lf, blobs)
+    assert found.all()
+    assert max(abs(m) for m in d.getSlopeRangeReport().slicesUsed) <= 1.5

@@ -63,6 +63,12 @@ double availableMemoryBytes();
 /// detector looks for structure beyond that end (SlopeRangeReport::surveyedSlopes).
 constexpr double kRangeEndShare = 0.05;
 
+/// Largest automatic slope (SlopeRangeReport::automaticReach, pixels per view step) below
+/// which scenes often reach beyond it (camera arrays, gantries, long rows of views): the
+/// automatic range's survey then looks beyond it for structure to warn of
+/// (SlopeRangeReport::structureBeyondReach), and finding no feature is warned of.
+constexpr double kSmallReach = 3.0;
+
 /// What the last completed detect/detectAndCompute/compute call of a detector found out about its
 /// own slope range (docs/SLOPES.md): the facts the Python package's SlopeRangeWarning
 /// messages are made of, computed by the core during the call. Slopes are in pixels per

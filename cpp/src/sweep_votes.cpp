@@ -1,0 +1,182 @@
+#include "sweep_votes.hpp"
+
+#include <algorithm>
+#include <limits>
+#include <utility>
+
+#include "profile.hpp"
+
+namespace liff {
+namespace detail {
+namespace {
+
+/// A pixel votes when its best slope costs less than this share of its mean cost: a
+/// texture costs its contrast at wrong slopes and only noise at its own; a flat region
+/// costs noise everywhere (ratio near 1); a window straddling an occlusion edge about
+/// half its mean at either layer's slope.
+constexpr float kConsistency = 0.4f;
+/// ...and when its window's own texture (summed absolute differences of neighbouring
+/// pixels) is this many times its best cost per view: otherwise the low best is that
+/// of a flat window (whose mean cost is raised by structure that crosses it at other
+/// slopes), not a match. Noise alone gives about 2 (two differences per pixel against
+/// one per view); 3 keeps textures only a little above the noise of one view.
+constexpr float kTextureToResidual = 3.f;
+/// A slope counts when its votes cover this share of the view's pixels (a 9 x 9 patch of
+/// a 128 x 128 view): a layer large enough to hold features, not scattered edge votes...
+constexpr double kMinVoteShare = 0.005;
+/// ...or when votes where LiFF's detection threshold is reached gather in one place: a
+/// small feature seen alike by the views, however small its share of a large view. Votes
+/// are counted per cell of kVoteCell x kVoteCell pixels; a slope counts where, in a block
+/// of 2 x 2 cells, it holds the most of its neighbouring slopes' votes and those three
+/// slopes (1.5 pixels of parallax at the farthest view) hold at least kMinClusterVotes: a
+/// 4 x 4 patch of the block's 16 x 16, which scattered edge and noise votes (a few per
+/// slope in a whole view) do not reach...
+constexpr int kVoteCell = 8;
+constexpr int kMinClusterVotes = 16;
+/// ...unless a slope within this many sweep slopes (one pixel of parallax at the farthest
+/// view) counts by its share: such a cluster is that layer's votes spread over slopes.
+constexpr int kClusterLayerGap = 2;
+/// Votes checked for agreement of the views at a slope beyond an end of the range.
+constexpr int kBeyondChecks = 3;
+/// Rows of cells counted per task.
+constexpr int kCellRowsPerTask = 2;
+
+}  // namespace
+
+Votes::Votes(cv::Size size)
+    : best(size, CV_32F), index(size, CV_32S), sum(size, CV_32F), count(size, CV_32S) {}
+
+void Votes::clear(int rowBegin, int rowEnd) {
+  const cv::Range rows(rowBegin, rowEnd);
+  best.rowRange(rows).setTo(std::numeric_limits<float>::infinity());
+  index.rowRange(rows).setTo(-1);
+  sum.rowRange(rows).setTo(0);
+  count.rowRange(rows).setTo(0);
+}
+
+void Votes::merge(const Votes& later, int indexOffset, int rowBegin, int rowEnd) {
+  const cv::Range rows(rowBegin, rowEnd);
+  cv::Mat sumRows = sum.rowRange(rows), countRows = count.rowRange(rows);
+  sumRows += later.sum.rowRange(rows);
+  countRows += later.count.rowRange(rows);
+  const cv::Mat better = later.best.rowRange(rows) < best.rowRange(rows);
+  later.best.rowRange(rows).copyTo(best.rowRange(rows), better);
+  cv::Mat shifted = later.index.rowRange(rows) + indexOffset;
+  shifted.copyTo(index.rowRange(rows), better);
+}
+
+bool VoteCounts::layer(int k) const {
+  return k >= 0 && k < n && perSlope[k] >= kMinVoteShare * viewPixels;
+}
+
+std::vector<cv::Point> VoteCounts::strongestVotes(int k, int count) const {
+  std::vector<std::pair<float, cv::Point>> votes;
+  for (size_t c = size_t(k); c < strongestResponse.size(); c += n)
+    if (strongestResponse[c] > 0) votes.emplace_back(strongestResponse[c], strongestAt[c]);
+  const size_t kept = std::min(votes.size(), size_t(count));
+  std::partial_sort(votes.begin(), votes.begin() + kept, votes.end(),
+                    [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<cv::Point> points;
+  for (size_t i = 0; i < kept; ++i) points.push_back(votes[i].second);
+  return points;
+}
+
+VoteCounts countVotes(const Votes& votes, int n, const cv::Mat& texture, const cv::Mat& response,
+                      int compared, int minCount, float minResponse, float featureResponse) {
+  VoteCounts counts;
+  const int V = votes.best.rows, U = votes.best.cols;
+  counts.n = n;
+  counts.cellsX = (U + kVoteCell - 1) / kVoteCell;
+  counts.cellsY = (V + kVoteCell - 1) / kVoteCell;
+  counts.viewPixels = double(V) * U;
+  const size_t cellSlopes = size_t(counts.cellsX) * counts.cellsY * n;
+  counts.all.assign(cellSlopes, 0);
+  counts.strong.assign(cellSlopes, 0);
+  counts.strongestResponse.assign(cellSlopes, 0.f);
+  counts.strongestAt.assign(cellSlopes, cv::Point());
+  const int tasks = (counts.cellsY + kCellRowsPerTask - 1) / kCellRowsPerTask;
+  parallelFor("survey plane sweep", cv::Range(0, tasks), [&](const cv::Range& range) {
+    const int yBegin = range.start * kCellRowsPerTask * kVoteCell;
+    const int yEnd = std::min(V, range.end * kCellRowsPerTask * kVoteCell);
+    for (int y = yBegin; y < yEnd; ++y)
+      for (int x = 0; x < U; ++x) {
+        const int count = votes.count.at<int>(y, x);
+        if (count < minCount) continue;
+        const float best = votes.best.at<float>(y, x), dog = response.at<float>(y, x);
+        if (!(best < kConsistency * votes.sum.at<float>(y, x) / count &&
+              texture.at<float>(y, x) >= kTextureToResidual * best / float(compared) &&
+              dog >= minResponse))
+          continue;
+        const size_t at = (size_t(y / kVoteCell) * counts.cellsX + x / kVoteCell) * n +
+                          size_t(votes.index.at<int>(y, x));
+        ++counts.all[at];
+        if (dog < featureResponse) continue;
+        ++counts.strong[at];
+        if (dog > counts.strongestResponse[at]) {
+          counts.strongestResponse[at] = dog;
+          counts.strongestAt[at] = cv::Point(x, y);
+        }
+      }
+  });
+  counts.perSlope.assign(n, 0);
+  for (size_t c = 0; c < cellSlopes; c += n)
+    for (int k = 0; k < n; ++k) counts.perSlope[k] += counts.all[c + k];
+  return counts;
+}
+
+Clusters findClusters(const VoteCounts& counts) {
+  const int n = counts.n, cellsX = counts.cellsX, cellsY = counts.cellsY;
+  Clusters clusters;
+  clusters.votes.assign(n, 0);
+  clusters.at.assign(n, cv::Point());
+  std::vector<float> strongest(n, 0.f);
+  std::vector<int> block(n);
+  // Blocks of 2 x 2 cells (one cell where the view has a single row or column of them).
+  for (int cy = 0; cy + 1 < std::max(2, cellsY); ++cy)
+    for (int cx = 0; cx + 1 < std::max(2, cellsX); ++cx) {
+      std::fill(block.begin(), block.end(), 0);
+      for (int dy = 0; dy < std::min(2, cellsY); ++dy)
+        for (int dx = 0; dx < std::min(2, cellsX); ++dx) {
+          const int* counted = counts.strong.data() + (size_t(cy + dy) * cellsX + cx + dx) * n;
+          for (int k = 0; k < n; ++k) block[k] += counted[k];
+        }
+      for (int k = 0; k < n; ++k) {
+        const int below = k > 0 ? block[k - 1] : 0, above = k + 1 < n ? block[k + 1] : 0;
+        const int sum = below + block[k] + above;
+        if (block[k] < below || block[k] < above || sum < kMinClusterVotes ||
+            sum <= clusters.votes[k])
+          continue;
+        clusters.votes[k] = sum;
+        strongest[k] = 0.f;
+        for (int dy = 0; dy < std::min(2, cellsY); ++dy)
+          for (int dx = 0; dx < std::min(2, cellsX); ++dx) {
+            const size_t at = (size_t(cy + dy) * cellsX + cx + dx) * n + k;
+            if (counts.strongestResponse[at] > strongest[k]) {
+              strongest[k] = counts.strongestResponse[at];
+              clusters.at[k] = counts.strongestAt[at];
+            }
+          }
+      }
+    }
+  return clusters;
+}
+
+bool slopeCounts(const VoteCounts& counts, const Clusters& clusters, int k,
+                 const Agreement& agree) {
+  if (counts.layer(k)) return true;
+  if (clusters.votes[k] == 0) return false;
+  for (int d = 1; d <= kClusterLayerGap; ++d)
+    if (counts.layer(k - d) || counts.layer(k + d)) return false;  // that layer's own spread
+  return agree(clusters.at[k], k);
+}
+
+bool structureAt(const VoteCounts& counts, const Clusters& clusters, int k,
+                 const Agreement& agree) {
+  if (!counts.layer(k) && clusters.votes[k] == 0) return false;
+  for (const cv::Point& point : counts.strongestVotes(k, kBeyondChecks))
+    if (agree(point, k)) return true;
+  return false;
+}
+
+}  // namespace detail
+}  // namespace liff

@@ -71,8 +71,10 @@ bool VoteCounts::layer(int k) const {
 
 std::vector<cv::Point> VoteCounts::strongestVotes(int k, int count) const {
   std::vector<std::pair<float, cv::Point>> votes;
-  for (size_t c = size_t(k); c < strongestResponse.size(); c += n)
-    if (strongestResponse[c] > 0) votes.emplace_back(strongestResponse[c], strongestAt[c]);
+  for (int c = 0; c < strongestResponse.rows; ++c) {
+    const float response = strongestResponse.at<float>(c, k);
+    if (response > 0) votes.emplace_back(response, cv::Point(strongestAt.at<cv::Vec2i>(c, k)));
+  }
   const size_t kept = std::min(votes.size(), size_t(count));
   std::partial_sort(votes.begin(), votes.begin() + kept, votes.end(),
                     [](const auto& a, const auto& b) { return a.first > b.first; });
@@ -89,11 +91,11 @@ VoteCounts countVotes(const Votes& votes, int n, const cv::Mat& texture, const c
   counts.cellsX = (U + kVoteCell - 1) / kVoteCell;
   counts.cellsY = (V + kVoteCell - 1) / kVoteCell;
   counts.viewPixels = double(V) * U;
-  const size_t cellSlopes = size_t(counts.cellsX) * counts.cellsY * n;
-  counts.all.assign(cellSlopes, 0);
-  counts.strong.assign(cellSlopes, 0);
-  counts.strongestResponse.assign(cellSlopes, 0.f);
-  counts.strongestAt.assign(cellSlopes, cv::Point());
+  const int cells = counts.cellsX * counts.cellsY;
+  counts.all = cv::Mat::zeros(cells, n, CV_32S);
+  counts.strong = cv::Mat::zeros(cells, n, CV_32S);
+  counts.strongestResponse = cv::Mat::zeros(cells, n, CV_32F);
+  counts.strongestAt = cv::Mat::zeros(cells, n, CV_32SC2);
   const int tasks = (counts.cellsY + kCellRowsPerTask - 1) / kCellRowsPerTask;
   parallelFor("survey plane sweep", cv::Range(0, tasks), [&](const cv::Range& range) {
     const int yBegin = range.start * kCellRowsPerTask * kVoteCell;
@@ -107,20 +109,22 @@ VoteCounts countVotes(const Votes& votes, int n, const cv::Mat& texture, const c
               texture.at<float>(y, x) >= kTextureToResidual * best / float(compared) &&
               dog >= minResponse))
           continue;
-        const size_t at = (size_t(y / kVoteCell) * counts.cellsX + x / kVoteCell) * n +
-                          size_t(votes.index.at<int>(y, x));
-        ++counts.all[at];
+        const int cell = (y / kVoteCell) * counts.cellsX + x / kVoteCell;
+        const int k = votes.index.at<int>(y, x);
+        ++counts.all.at<int>(cell, k);
         if (dog < featureResponse) continue;
-        ++counts.strong[at];
-        if (dog > counts.strongestResponse[at]) {
-          counts.strongestResponse[at] = dog;
-          counts.strongestAt[at] = cv::Point(x, y);
+        ++counts.strong.at<int>(cell, k);
+        if (dog > counts.strongestResponse.at<float>(cell, k)) {
+          counts.strongestResponse.at<float>(cell, k) = dog;
+          counts.strongestAt.at<cv::Vec2i>(cell, k) = cv::Vec2i(x, y);
         }
       }
   });
   counts.perSlope.assign(n, 0);
-  for (size_t c = 0; c < cellSlopes; c += n)
-    for (int k = 0; k < n; ++k) counts.perSlope[k] += counts.all[c + k];
+  for (int c = 0; c < cells; ++c) {
+    const int* row = counts.all.ptr<int>(c);
+    for (int k = 0; k < n; ++k) counts.perSlope[k] += row[k];
+  }
   return counts;
 }
 
@@ -137,7 +141,7 @@ Clusters findClusters(const VoteCounts& counts) {
       std::fill(block.begin(), block.end(), 0);
       for (int dy = 0; dy < std::min(2, cellsY); ++dy)
         for (int dx = 0; dx < std::min(2, cellsX); ++dx) {
-          const int* counted = counts.strong.data() + (size_t(cy + dy) * cellsX + cx + dx) * n;
+          const int* counted = counts.strong.ptr<int>((cy + dy) * cellsX + cx + dx);
           for (int k = 0; k < n; ++k) block[k] += counted[k];
         }
       for (int k = 0; k < n; ++k) {
@@ -150,10 +154,10 @@ Clusters findClusters(const VoteCounts& counts) {
         strongest[k] = 0.f;
         for (int dy = 0; dy < std::min(2, cellsY); ++dy)
           for (int dx = 0; dx < std::min(2, cellsX); ++dx) {
-            const size_t at = (size_t(cy + dy) * cellsX + cx + dx) * n + k;
-            if (counts.strongestResponse[at] > strongest[k]) {
-              strongest[k] = counts.strongestResponse[at];
-              clusters.at[k] = counts.strongestAt[at];
+            const int cell = (cy + dy) * cellsX + cx + dx;
+            if (counts.strongestResponse.at<float>(cell, k) > strongest[k]) {
+              strongest[k] = counts.strongestResponse.at<float>(cell, k);
+              clusters.at[k] = cv::Point(counts.strongestAt.at<cv::Vec2i>(cell, k));
             }
           }
       }

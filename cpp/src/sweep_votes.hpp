@@ -30,13 +30,15 @@ struct Votes {
 /// cost, (b) its window's texture (`texture`) is kTextureToResidual times that best per
 /// compared view, and (c) its |DoG| (`response`) reaches `minResponse` (LiFF's pre-test);
 /// votes whose |DoG| reaches `featureResponse` (LiFF's detection threshold) are "strong".
-/// Counted per cell of kVoteCell pixels, with each cell's strongest strong vote per slope.
+/// Counted per cell of kVoteCell pixels, with each cell's strongest strong vote per slope
+/// (Mats, one row per cell, one column per slope: the working memory keeps them from call
+/// to call).
 struct VoteCounts {
   int n = 0, cellsX = 0, cellsY = 0;
-  std::vector<int> perSlope;             // all votes per slope
-  std::vector<int> all, strong;          // [cell row][cell column][slope]
-  std::vector<float> strongestResponse;  // of the strong votes, per cell and slope
-  std::vector<cv::Point> strongestAt;
+  std::vector<int> perSlope;   // all votes per slope
+  cv::Mat all, strong;         // CV_32S, row cy * cellsX + cx
+  cv::Mat strongestResponse;   // CV_32F, of the strong votes
+  cv::Mat strongestAt;         // CV_32SC2 (x, y)
   double viewPixels = 0;
 
   /// A layer: votes at slope k cover kMinVoteShare of the view.

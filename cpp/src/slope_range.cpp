@@ -218,16 +218,16 @@ double largestSlope(int T, int S, int V, int U) {
   return std::max(quarter, std::min(half, kPaperRange));
 }
 
-double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope, int layers,
-                     bool seeingViewsOnly, const std::vector<bool>* onlyViews) {
-  // b_v = sum_q w(q) L_v(p_v + q), w = G(k sigma) - G(sigma) the keypoint's DoG,
-  // sampled every sigma (enough for a statistic of smooth Gaussians) within 3 k sigma.
+namespace {
+
+// The keypoint's DoG, w = G(k sigma) - G(sigma), sampled every sigma (enough for a
+// statistic of smooth Gaussians) within 3 k sigma: weights and their offsets.
+void dogPatch(const cv::KeyPoint& kp, int layers, std::vector<float>& weights,
+              std::vector<cv::Point2f>& offsets) {
   const float sigma = std::max(0.5f, kp.size * 0.5f);
   const float k = std::pow(2.f, 1.f / layers), wide = k * sigma;
   const float stepQ = std::max(1.f, sigma);
   const int reach = int(std::ceil(3 * wide / stepQ));
-  std::vector<float> weights;
-  std::vector<cv::Point2f> offsets;
   for (int i = -reach; i <= reach; ++i)
     for (int j = -reach; j <= reach; ++j) {
       const float dx = j * stepQ, dy = i * stepQ, r2 = dx * dx + dy * dy;
@@ -236,45 +236,108 @@ double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope,
       weights.push_back(g2 - g1);
       offsets.emplace_back(dx, dy);
     }
+}
+
+// b = sum_q w(q) L(p + q) of one view (premultiplied by alpha where `alpha`: divided by
+// the patch's mean weight); false where the patch is mostly invalid (mean weight under
+// half the largest).
+bool dogResponse(const LightField& lf, int t, int s, cv::Point2f p,
+                 const std::vector<float>& weights, const std::vector<cv::Point2f>& offsets,
+                 double& b) {
+  const float* view = lf.view(t, s);
+  const float* alpha =
+      lf.weights.empty() ? nullptr : lf.weights[size_t(t) * lf.S + s].ptr<float>();
+  double a = 0, total = 0;
+  b = 0;
+  for (size_t q = 0; q < weights.size(); ++q) {
+    const float qx = p.x + offsets[q].x, qy = p.y + offsets[q].y;
+    b += weights[q] * sample(view, lf.U, lf.V, qx, qy);
+    if (alpha) {
+      a += std::abs(weights[q]) * sample(alpha, lf.U, lf.V, qx, qy);
+      total += std::abs(weights[q]);
+    }
+  }
+  if (!alpha) return true;
+  // Premultiplied values: divide by the patch's mean weight; skip mostly invalid views.
+  const double meanWeight = a / total;
+  if (!(meanWeight > 0.5 * lf.maxWeight)) return false;
+  b /= meanWeight;
+  return true;
+}
+
+}  // namespace
+
+double viewCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope, int layers) {
+  std::vector<float> weights;
+  std::vector<cv::Point2f> offsets;
+  dogPatch(kp, layers, weights, offsets);
   const double tc = 0.5 * (lf.T - 1), sc = 0.5 * (lf.S - 1);
   double sum = 0, sumSquares = 0;
-  int used = 0, considered = 0;
+  int used = 0;
   for (int t = 0; t < lf.T; ++t)
     for (int s = 0; s < lf.S; ++s) {
-      if (onlyViews && !(*onlyViews)[size_t(t) * lf.S + s]) continue;
-      ++considered;
       const float x = float(kp.pt.x - slope * (s - sc)), y = float(kp.pt.y - slope * (t - tc));
       // Every view must see the feature: where the shifted views no longer overlap, the
       // slice is an average of fewer views, as sharp at a wrong slope as at the right one,
       // and with two views along an axis most such features are ghosts. Patches that
       // reach past a border sample the replicated border.
-      if (x < 0 || y < 0 || x > lf.U - 1 || y > lf.V - 1) {
-        if (seeingViewsOnly) continue;
-        return -1;
-      }
-      const float* view = lf.view(t, s);
-      const float* alpha =
-          lf.weights.empty() ? nullptr : lf.weights[size_t(t) * lf.S + s].ptr<float>();
-      double b = 0, a = 0, total = 0;
-      for (size_t q = 0; q < weights.size(); ++q) {
-        const float qx = x + offsets[q].x, qy = y + offsets[q].y;
-        b += weights[q] * sample(view, lf.U, lf.V, qx, qy);
-        if (alpha) {
-          a += std::abs(weights[q]) * sample(alpha, lf.U, lf.V, qx, qy);
-          total += std::abs(weights[q]);
-        }
-      }
-      if (alpha) {
-        // Premultiplied values: divide by the patch's mean weight; skip mostly invalid views.
-        const double meanWeight = a / total;
-        if (!(meanWeight > 0.5 * lf.maxWeight)) continue;
-        b /= meanWeight;
-      }
+      if (x < 0 || y < 0 || x > lf.U - 1 || y > lf.V - 1) return -1;
+      double b = 0;
+      if (!dogResponse(lf, t, s, cv::Point2f(x, y), weights, offsets, b)) continue;
       sum += b;
       sumSquares += b * b;
       ++used;
     }
-  if (2 * used < considered || !(sumSquares > 0)) return -1;
+  if (2 * used < lf.T * lf.S || !(sumSquares > 0)) return -1;
+  return sum * sum / (used * sumSquares);
+}
+
+double seenCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope, int layers,
+                     const std::vector<bool>* onlyViews, int& used) {
+  used = 0;
+  std::vector<float> weights;
+  std::vector<cv::Point2f> offsets;
+  dogPatch(kp, layers, weights, offsets);
+  // The views (of onlyViews) that see the keypoint's centre at its slope.
+  const double tc = 0.5 * (lf.T - 1), sc = 0.5 * (lf.S - 1);
+  std::vector<std::pair<cv::Point, cv::Point2f>> seeing;  // (s, t), position in the view
+  for (int t = 0; t < lf.T; ++t)
+    for (int s = 0; s < lf.S; ++s) {
+      if (onlyViews && !(*onlyViews)[size_t(t) * lf.S + s]) continue;
+      const float x = float(kp.pt.x - slope * (s - sc)), y = float(kp.pt.y - slope * (t - tc));
+      if (x >= 0 && y >= 0 && x <= lf.U - 1 && y <= lf.V - 1)
+        seeing.emplace_back(cv::Point(s, t), cv::Point2f(x, y));
+    }
+  // The patch's samples inside every one of them (the support they all show), the DoG's
+  // weights there less their mean, so that what part of the patch remains sums to 0
+  // and a view's mean brightness does not count as agreement.
+  std::vector<float> common;
+  std::vector<cv::Point2f> commonOffsets;
+  for (size_t q = 0; q < weights.size(); ++q) {
+    bool inside = true;
+    for (const auto& view : seeing) {
+      const cv::Point2f at = view.second + offsets[q];
+      inside = inside && at.x >= 0 && at.y >= 0 && at.x <= lf.U - 1 && at.y <= lf.V - 1;
+    }
+    if (!inside) continue;
+    common.push_back(weights[q]);
+    commonOffsets.push_back(offsets[q]);
+  }
+  if (common.empty()) return -1;
+  double mean = 0;
+  for (float w : common) mean += w;
+  mean /= double(common.size());
+  for (float& w : common) w = float(w - mean);
+  double sum = 0, sumSquares = 0;
+  for (const auto& view : seeing) {
+    double b = 0;
+    if (!dogResponse(lf, view.first.y, view.first.x, view.second, common, commonOffsets, b))
+      continue;
+    sum += b;
+    sumSquares += b * b;
+    ++used;
+  }
+  if (used < 2 || !(sumSquares > 0)) return -1;
   return sum * sum / (used * sumSquares);
 }
 
@@ -389,11 +452,9 @@ SlopeSurvey surveySlopes(const LightField& lf, const Parameters& p, double lo, d
   std::vector<LightField> levels{std::move(finestLevel)};
   for (int f = finest * 2; f <= coarsest; f *= 2) levels.push_back(decimate(levels.back(), 2));
   const SlopeIntervals all{{std::max(lo, -reach), std::min(hi, reach)}};
-  // Beyond an end that is the reach (not a bound given), where the reach is small, the
-  // sweep looks up to one more paper range (or R, where smaller) further, to say whether
-  // structure lies there; elsewhere (the outermost views overlapping by less than 3/4
-  // beyond R, which scenes seldom reach) one sweep slope further.
-  const double lookBeyond = reach < kSmallReach ? std::min(reach, kPaperRange) : 0.0;
+  // Beyond an end that is the reach (not a bound given), the sweep looks up to one more
+  // paper range (or R, where smaller) further, to say whether structure lies there.
+  const double lookBeyond = std::min(reach, kPaperRange);
   const bool lowIsReach = -reach > lo, highIsReach = reach < hi;
   const SweptSlopes swept =
       textureSlopes(sweepLevel, sweepFactor, all[0].first, all[0].second, p,

@@ -42,12 +42,17 @@ double largestSlope(int T, int S, int V, int U);
 /// and -1 when fewer than half remain. Patches reaching past a border sample the
 /// replicated border.
 /// `keypoint` is in `lf`'s pixels and its slope in `lf`'s pixels per view step.
-/// With `seeingViewsOnly`, the views that do not see the keypoint are left out (as mostly
-/// invalid ones are) instead of giving -1: how the views that see a feature near a
-/// border agree (view_borders.hpp). With `onlyViews` (T * S flags, LightField layout),
-/// only those views are read and counted (the others may be empty).
-double viewCoherence(const LightField& lf, const cv::KeyPoint& keypoint, double slope, int layers,
-                     bool seeingViewsOnly = false, const std::vector<bool>* onlyViews = nullptr);
+double viewCoherence(const LightField& lf, const cv::KeyPoint& keypoint, double slope, int layers);
+
+/// The coherence (as viewCoherence) of the views that see the keypoint's centre at its
+/// slope (of `onlyViews`, T * S flags in LightField layout, where given: the others may
+/// be empty), over the part of the DoG's patch that every one of them shows, its weights
+/// less their mean there (zero sum: brightness alone does not agree); mostly invalid
+/// views (alpha) are left out. `used`: the views summed. -1 with fewer than two, or no
+/// common support. How the views that see a feature near a border agree
+/// (view_borders.hpp), and the plane sweep's check of its clusters.
+double seenCoherence(const LightField& lf, const cv::KeyPoint& keypoint, double slope, int layers,
+                     const std::vector<bool>* onlyViews, int& used);
 
 /// The least coherence of a feature of n views, halfway between 1 and the coherence an
 /// extremum of noise or texture picked among n views reaches, z^2 / (n + z^2) for a

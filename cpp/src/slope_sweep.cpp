@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -213,12 +214,12 @@ std::vector<Compared> comparedViews(const LightField& lf) {
   return views;
 }
 
-// The sweep over slopes m_k = (first + k) g, k < n: kSweepChunks chunks of slopes in
+// The sweep over slopes m_k = (first + k) g, k < n: `chunkCount` chunks of slopes in
 // parallel, each with its own votes, merged after in chunk order, so that the sums (and
-// so the votes) are the same whatever the number of threads.
+// so the votes) are the same whatever the number of threads (a few slopes: one chunk).
 Votes sweepAll(const cv::Mat& reference, const std::vector<Compared>& views, long first, int n,
-               double g) {
-  const int chunks = std::max(1, std::min(n, kSweepChunks));
+               double g, int chunkCount = kSweepChunks) {
+  const int chunks = std::max(1, std::min(n, chunkCount));
   std::vector<Votes> partial;
   for (int c = 0; c < chunks; ++c) partial.emplace_back(reference.size());
   const int bands = (reference.rows + kSweepRowsPerBand - 1) / kSweepRowsPerBand;
@@ -319,27 +320,23 @@ SweptSlopes sweepSlopes(const LightField& lf, double lo, double hi, float minRes
   // Votes of the pixels that saw at least half the slopes (their best is a choice among
   // many): sweep_votes.hpp.
   const int minCount = std::max(3, n / 2);
-  auto count = [&](const Votes& votes, int slopes) {
-    return countVotes(votes, slopes, texture, response, int(views.size()), minCount,
-                      minResponse, featureResponse);
-  };
-  const VoteCounts counts = count(inRange, n);
+  const VoteCounts counts = countVotes(inRange, n, texture, response, int(views.size()),
+                                       minCount, minResponse, featureResponse);
   const Clusters clusters = findClusters(counts);
-  // Whether every view of the reference's row and column agrees at a point at slope
-  // (origin + k) g (viewCoherence, as the survey's features), or within a sweep slope of
+  // Whether the views of the reference's row and column agree at a point at slope
+  // (origin + k) g (seenCoherence, as the survey's features' test), or within a sweep slope of
   // it in half steps: a vote's slope is that of its window, and the strongest vote of a
   // small feature lies on its edge, where a quarter pixel of parallax already matters; a
   // repeated pattern's alias is a whole period off at the outermost views.
   const std::vector<bool> rowAndColumn = sweptViews(lf.T, lf.S);
-  int swept = 0;
-  for (bool inRowOrColumn : rowAndColumn) swept += inRowOrColumn;
   auto agreement = [&](long origin) -> Agreement {
     return [&, origin](cv::Point point, int k) {
       const cv::KeyPoint at(cv::Point2f(point), float(2 * kDogSigma));
       for (int half = -2; half <= 2; ++half) {
         const double m = (double(origin + k) + 0.5 * half) * g;
-        if (viewCoherence(lf, at, m, kDogLayers, true, &rowAndColumn) >= minCoherence(swept))
-          return true;
+        int used = 0;
+        const double kappa = seenCoherence(lf, at, m, kDogLayers, &rowAndColumn, used);
+        if (used >= 2 && kappa >= minCoherence(used)) return true;
       }
       return false;
     };
@@ -355,22 +352,37 @@ SweptSlopes sweepSlopes(const LightField& lf, double lo, double hi, float minRes
     found.beyondHigh = structureAt(counts, clusters, n - 1, agreement(first));
   } else {
     const long wideFirst = firstIn - below, wideLast = lastIn + above;
-    const int wideN = int(wideFirst <= wideLast ? wideLast - wideFirst + 1 : 0);
-    Votes wide(reference.size());
-    wide.clear(0, reference.rows);
+    const int wideN = int(wideLast - wideFirst + 1);
+    std::unique_ptr<Votes> lowPart, highPart;
     if (first > wideFirst)
-      wide.merge(sweepAll(reference, views, wideFirst, int(first - wideFirst), g), 0, 0,
-                 reference.rows);
-    wide.merge(inRange, int(first - wideFirst), 0, reference.rows);
+      lowPart = std::make_unique<Votes>(
+          sweepAll(reference, views, wideFirst, int(first - wideFirst), g, 1));
     if (wideLast > last)
-      wide.merge(sweepAll(reference, views, last + 1, int(wideLast - last), g),
-                 int(last + 1 - wideFirst), 0, reference.rows);
-    const VoteCounts wideCounts = count(wide, wideN);
-    const Clusters wideClusters = findClusters(wideCounts);
+      highPart = std::make_unique<Votes>(
+          sweepAll(reference, views, last + 1, int(wideLast - last), g, 1));
+    Votes wide(reference.size());
+    const int bands = (reference.rows + kSweepRowsPerBand - 1) / kSweepRowsPerBand;
+    parallelFor("survey plane sweep", cv::Range(0, bands), [&](const cv::Range& range) {
+      const int r0 = range.start * kSweepRowsPerBand;
+      const int r1 = std::min(reference.rows, range.end * kSweepRowsPerBand);
+      wide.clear(r0, r1);
+      if (lowPart) wide.merge(*lowPart, 0, r0, r1);
+      wide.merge(inRange, int(first - wideFirst), r0, r1);
+      if (highPart) wide.merge(*highPart, int(last + 1 - wideFirst), r0, r1);
+    });
+    // Only the slopes beyond the range, and the range's end slopes beside them (a cluster
+    // there is the end's, not beyond), are counted and searched for clusters.
+    const int kFirst = int(firstIn - wideFirst), kLast = int(lastIn - wideFirst);
+    const VoteCounts wideCounts =
+        countVotes(wide, wideN, texture, response, int(views.size()), minCount, minResponse,
+                   featureResponse, cv::Range(kFirst + 1, std::max(kFirst + 1, kLast)));
+    std::vector<char> beyond(wideN, 0);
+    for (int k = 0; k < wideN; ++k) beyond[k] = k < kFirst || k > kLast;
+    const Clusters wideClusters = findClusters(wideCounts, &beyond);
     const Agreement wideAgreement = agreement(wideFirst);
-    for (int k = 0; k < int(firstIn - wideFirst) && !found.beyondLow; ++k)
+    for (int k = 0; k < kFirst && !found.beyondLow; ++k)
       found.beyondLow = structureAt(wideCounts, wideClusters, k, wideAgreement);
-    for (int k = wideN - 1; k > int(lastIn - wideFirst) && !found.beyondHigh; --k)
+    for (int k = wideN - 1; k > kLast && !found.beyondHigh; --k)
       found.beyondHigh = structureAt(wideCounts, wideClusters, k, wideAgreement);
   }
   // Each slope with enough votes stands for the slopes nearer to it than to its neighbours.

@@ -39,7 +39,7 @@ struct SweptSlopes {
 /// `beyondLow` below lo and `beyondHigh` above hi (at least one slope) are swept too, their
 /// votes not counted in the intervals (a layer beyond the range would vote for the end
 /// slope) but reported (SweptSlopes::beyondLow, beyondHigh) where a layer or cluster
-/// there is seen alike by the reference's row and column (viewCoherence: not a repeated
+/// there is seen alike by the reference's row and column (seenCoherence: not a repeated
 /// pattern's alias). Outer views whose mean weight (alpha) is
 /// under half the largest are passed over for the outermost usable ones. `lf` may be decimated: slopes are in its own pixels per view step.
 SweptSlopes sweepSlopes(const LightField& lf, double lo, double hi, float minResponse,

@@ -84,7 +84,8 @@ std::vector<cv::Point> VoteCounts::strongestVotes(int k, int count) const {
 }
 
 VoteCounts countVotes(const Votes& votes, int n, const cv::Mat& texture, const cv::Mat& response,
-                      int compared, int minCount, float minResponse, float featureResponse) {
+                      int compared, int minCount, float minResponse, float featureResponse,
+                      cv::Range skipped) {
   VoteCounts counts;
   const int V = votes.best.rows, U = votes.best.cols;
   counts.n = n;
@@ -104,13 +105,14 @@ VoteCounts countVotes(const Votes& votes, int n, const cv::Mat& texture, const c
       for (int x = 0; x < U; ++x) {
         const int count = votes.count.at<int>(y, x);
         if (count < minCount) continue;
+        const int k = votes.index.at<int>(y, x);
+        if (k >= skipped.start && k < skipped.end) continue;
         const float best = votes.best.at<float>(y, x), dog = response.at<float>(y, x);
         if (!(best < kConsistency * votes.sum.at<float>(y, x) / count &&
               texture.at<float>(y, x) >= kTextureToResidual * best / float(compared) &&
               dog >= minResponse))
           continue;
         const int cell = (y / kVoteCell) * counts.cellsX + x / kVoteCell;
-        const int k = votes.index.at<int>(y, x);
         ++counts.all.at<int>(cell, k);
         if (dog < featureResponse) continue;
         ++counts.strong.at<int>(cell, k);
@@ -128,40 +130,61 @@ VoteCounts countVotes(const Votes& votes, int n, const cv::Mat& texture, const c
   return counts;
 }
 
-Clusters findClusters(const VoteCounts& counts) {
+Clusters findClusters(const VoteCounts& counts, const std::vector<char>* wanted) {
   const int n = counts.n, cellsX = counts.cellsX, cellsY = counts.cellsY;
+  // Blocks of 2 x 2 cells (one cell where the view has a single row or column of them);
+  // each row of blocks by one task, its best per slope kept apart, then merged in row
+  // order (the first of equal clusters kept, as one loop over the rows would).
+  const int blockRows = std::max(2, cellsY) - 1, blockColumns = std::max(2, cellsX) - 1;
+  auto want = [&](int k) { return k >= 0 && k < n && (!wanted || (*wanted)[k]); };
+  std::vector<Clusters> rows(blockRows);
+  std::vector<std::vector<float>> rowStrongest(blockRows);
+  parallelFor("survey plane sweep", cv::Range(0, blockRows), [&](const cv::Range& range) {
+    std::vector<int> block(n);
+    for (int cy = range.start; cy < range.end; ++cy) {
+      Clusters& found = rows[cy];
+      std::vector<float>& strongest = rowStrongest[cy];
+      found.votes.assign(n, 0);
+      found.at.assign(n, cv::Point());
+      strongest.assign(n, 0.f);
+      for (int cx = 0; cx < blockColumns; ++cx) {
+        std::fill(block.begin(), block.end(), 0);
+        for (int dy = 0; dy < std::min(2, cellsY); ++dy)
+          for (int dx = 0; dx < std::min(2, cellsX); ++dx) {
+            const int* counted = counts.strong.ptr<int>((cy + dy) * cellsX + cx + dx);
+            for (int k = 0; k < n; ++k)
+              if (want(k) || want(k - 1) || want(k + 1)) block[k] += counted[k];
+          }
+        for (int k = 0; k < n; ++k) {
+          if (!want(k)) continue;
+          const int below = k > 0 ? block[k - 1] : 0, above = k + 1 < n ? block[k + 1] : 0;
+          const int sum = below + block[k] + above;
+          if (block[k] < below || block[k] < above || sum < kMinClusterVotes ||
+              sum <= found.votes[k])
+            continue;
+          found.votes[k] = sum;
+          strongest[k] = 0.f;
+          for (int dy = 0; dy < std::min(2, cellsY); ++dy)
+            for (int dx = 0; dx < std::min(2, cellsX); ++dx) {
+              const int cell = (cy + dy) * cellsX + cx + dx;
+              if (counts.strongestResponse.at<float>(cell, k) > strongest[k]) {
+                strongest[k] = counts.strongestResponse.at<float>(cell, k);
+                found.at[k] = cv::Point(counts.strongestAt.at<cv::Vec2i>(cell, k));
+              }
+            }
+        }
+      }
+    }
+  });
   Clusters clusters;
   clusters.votes.assign(n, 0);
   clusters.at.assign(n, cv::Point());
-  std::vector<float> strongest(n, 0.f);
-  std::vector<int> block(n);
-  // Blocks of 2 x 2 cells (one cell where the view has a single row or column of them).
-  for (int cy = 0; cy + 1 < std::max(2, cellsY); ++cy)
-    for (int cx = 0; cx + 1 < std::max(2, cellsX); ++cx) {
-      std::fill(block.begin(), block.end(), 0);
-      for (int dy = 0; dy < std::min(2, cellsY); ++dy)
-        for (int dx = 0; dx < std::min(2, cellsX); ++dx) {
-          const int* counted = counts.strong.ptr<int>((cy + dy) * cellsX + cx + dx);
-          for (int k = 0; k < n; ++k) block[k] += counted[k];
-        }
-      for (int k = 0; k < n; ++k) {
-        const int below = k > 0 ? block[k - 1] : 0, above = k + 1 < n ? block[k + 1] : 0;
-        const int sum = below + block[k] + above;
-        if (block[k] < below || block[k] < above || sum < kMinClusterVotes ||
-            sum <= clusters.votes[k])
-          continue;
-        clusters.votes[k] = sum;
-        strongest[k] = 0.f;
-        for (int dy = 0; dy < std::min(2, cellsY); ++dy)
-          for (int dx = 0; dx < std::min(2, cellsX); ++dx) {
-            const int cell = (cy + dy) * cellsX + cx + dx;
-            if (counts.strongestResponse.at<float>(cell, k) > strongest[k]) {
-              strongest[k] = counts.strongestResponse.at<float>(cell, k);
-              clusters.at[k] = cv::Point(counts.strongestAt.at<cv::Vec2i>(cell, k));
-            }
-          }
+  for (const Clusters& row : rows)
+    for (int k = 0; k < n; ++k)
+      if (row.votes[k] > clusters.votes[k]) {
+        clusters.votes[k] = row.votes[k];
+        clusters.at[k] = row.at[k];
       }
-    }
   return clusters;
 }
 

@@ -46,18 +46,20 @@ struct VoteCounts {
   /// The strongest strong votes of slope k over all cells, at most `count`, strongest first.
   std::vector<cv::Point> strongestVotes(int k, int count) const;
 };
+/// Votes for the slopes `skipped` are not counted (only the rest are looked at).
 VoteCounts countVotes(const Votes& votes, int n, const cv::Mat& texture, const cv::Mat& response,
-                      int compared, int minCount, float minResponse, float featureResponse);
+                      int compared, int minCount, float minResponse, float featureResponse,
+                      cv::Range skipped = cv::Range(0, 0));
 
 /// Per slope, its strongest cluster: the strong votes of slope k and its neighbours in
 /// the block of 2 x 2 cells where slope k holds the most of the three and the three
 /// hold at least kMinClusterVotes (0 where there is none), and that block's strongest
-/// vote at slope k.
+/// vote at slope k; only for the slopes `wanted` (n flags) where given.
 struct Clusters {
   std::vector<int> votes;
   std::vector<cv::Point> at;
 };
-Clusters findClusters(const VoteCounts& counts);
+Clusters findClusters(const VoteCounts& counts, const std::vector<char>* wanted = nullptr);
 
 /// Whether the views agree at `point` (reference-view pixels) at slope index k.
 using Agreement = std::function<bool(cv::Point point, int k)>;

@@ -49,9 +49,9 @@ void dropBorderGhosts(const LightField& lf, int layers, Detections& detections) 
     for (int j = range.start; j < range.end; ++j) {
       const cv::KeyPoint& kp = keypoints[tested[j]];
       const double slope = keypointSlope(kp);
-      const int seeing = viewsSeeing(lf, kp.pt, slope);
-      keep[j] = 2 * seeing >= views &&
-                viewCoherence(lf, kp, slope, layers, true) >= minCoherence(seeing);
+      int used = 0;
+      const double kappa = seenCoherence(lf, kp, slope, layers, nullptr, used);
+      keep[j] = used >= 2 && kappa >= minCoherence(used);
     }
   });
   std::vector<int> rows;

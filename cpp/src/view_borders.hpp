@@ -15,8 +15,9 @@ namespace detail {
 int viewsSeeing(const LightField& lf, cv::Point2f pt, double slope);
 
 /// Drops the features that not every view sees at their slope unless the views that do
-/// see them agree: their coherence over those views (viewCoherence, seeingViewsOnly) at
-/// least minCoherence of their number, and at least half the views seeing them. A real
+/// see them agree: their coherence over those views (seenCoherence: on the part of the
+/// patch they all show, mostly invalid views left out) at least minCoherence of their
+/// number, two at least. A real
 /// feature near a border is seen alike by the views that see it (coherence near 1); a
 /// ghost there, another slope's structure made sharp by the views that remain, is not
 /// (near 1 / n). Features every view sees are kept untested. `layers`: nOctaveLayers

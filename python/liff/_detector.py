@@ -23,7 +23,7 @@ RANGE_END_SHARE: float = _core.RANGE_END_SHARE
 SMALL_REACH: float = _core.SMALL_REACH
 """Below this largest automatic slope (pixels per view step), finding no feature is
 worth a warning: scenes often reach beyond it (camera arrays, gantries; the core's
-kSmallReach, liff/liff.hpp, below which its survey also looks beyond the reach)."""
+kSmallReach, liff/liff.hpp)."""
 
 
 @functools.lru_cache(maxsize=None)
@@ -380,7 +380,7 @@ class LiFF(_core.LiFF):
             warnings.warn(f"the automatic slope range considers slopes within +-{reach:.2f} "
                           f"for {T}x{S} views of {U}x{V} (docs/SLOPES.md, 'Bound'), and its "
                           f"survey saw structure at or beyond that: features there are "
-                          f"missed or reported near +-{reach:.2f} ({len(rows)} features "
+                          f"missed or reported at wrong slopes ({len(rows)} features "
                           "returned); set firstSlope and lastSlope to search beyond",
                           SlopeRangeWarning, stacklevel=3)
             return

@@ -151,3 +151,15 @@ def test_evenly_spaced_small_disks_on_a_row_are_found_at_their_slopes():
     found = _found(d, lf, blobs)
     assert found.all()
     assert max(abs(m) for m in d.getSlopeRangeReport().slicesUsed) <= 1.5
+
+
+@pytest.mark.parametrize("slope", [4.5, 5.0])
+def test_a_plane_just_beyond_the_reach_of_a_strip_is_warned_of(slope):
+    """1x9 views of 128x256: R = 4 (a quarter of the shorter side over 8 steps). A plane
+    at 4.5 or 5 gave 54-90 features at wrong slopes and no warning; the sweep now looks
+    up to min(R, 1) beyond R and says so."""
+    lf = synthetic.textured_plane((1, 9, 128, 256), slope, seed=1)
+    d = liff.LiFF.create()
+    with pytest.warns(liff.SlopeRangeWarning, match=r"within \+-4\.00 .*wrong slopes"):
+        d.detect(lf)
+    assert d.getSlopeRangeReport().structureBeyondReach

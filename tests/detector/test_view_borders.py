@@ -74,3 +74,35 @@ def test_a_real_feature_that_some_views_do_not_see_is_kept(shape, x, dtype):
     near = [k for k in keypoints if np.hypot(k.pt[0] - blob.x, k.pt[1] - blob.y) < 2]
     assert near, "the disk is lost"
     assert np.abs(liff.keypoint_slopes(near) - slope).min() < 0.25
+
+
+@pytest.mark.parametrize("views, side, slope", [(17, 256, 3.0), (15, 200, -4.0), (9, 128, 6.0)])
+def test_blobs_at_the_corners_seen_by_fewer_than_half_the_views_are_kept(views, side, slope):
+    """A blob 9 px from each corner at a large slope: fewer than half the views see its
+    centre (17x17 at slope 3: 12 of 17 per axis, 144 of 289), and those agree. Kept at
+    its slope (a rule asking for half the views dropped them all)."""
+    far = side - 1 - 9
+    blobs = [synthetic.Blob(x + 0.3, y + 0.6, 2.5, slope, 0.4)
+             for x, y in ((9, 9), (far, 9), (9, far), (far, far))]
+    shifts = np.abs(slope) * (np.arange(views) - (views - 1) / 2)
+    seeing = ((9.3 - shifts >= 0) & (9.3 + shifts <= side - 1)).sum()  # per axis, corner (9, 9)
+    assert 0 < seeing ** 2 < views ** 2 / 2
+    lf = synthetic.render_disks(blobs, (views, views, side, side), profile="gaussian",
+                                noise_variance=1e-5, seed=2)
+    keypoints = liff.LiFF.create(firstSlope=slope - 2, lastSlope=slope + 2).detect(lf)
+    match = synthetic.match_blobs(keypoints, blobs, 2.0, 5.0)
+    assert match.found.all()
+    assert np.abs(liff.keypoint_slopes(keypoints) - slope).max() < 0.25
+
+
+def test_a_view_without_valid_samples_does_not_count_against_a_border_feature():
+    """3x3 views of a plane at -4, the first row of views invalid (alpha 0): features near
+    the borders are judged by the views that have samples. Without any border rule 867
+    features are at the right slope; a first version of the rule, which counted the
+    invalid views among those that must agree, kept 851; now at least 860."""
+    lf = synthetic.textured_plane((3, 3, 200, 200), -4.0, seed=5)
+    alpha = np.ones_like(lf)
+    alpha[0] = 0
+    detector = liff.LiFF.create(firstSlope=-6.0, lastSlope=-2.0)
+    with_alpha = liff.keypoint_slopes(detector.detect(np.stack([lf, alpha], -1)))
+    assert (np.abs(with_alpha + 4.0) <= 0.5).sum() >= 860

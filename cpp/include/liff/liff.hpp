@@ -64,9 +64,8 @@ double availableMemoryBytes();
 constexpr double kRangeEndShare = 0.05;
 
 /// Largest automatic slope (SlopeRangeReport::automaticReach, pixels per view step) below
-/// which scenes often reach beyond it (camera arrays, gantries, long rows of views): the
-/// automatic range's survey then looks beyond it for structure to warn of
-/// (SlopeRangeReport::structureBeyondReach), and finding no feature is warned of.
+/// which scenes often reach beyond it (camera arrays, gantries, long rows of views):
+/// there a call that finds no feature is warned of.
 constexpr double kSmallReach = 3.0;
 
 /// What the last completed detect/detectAndCompute/compute call of a detector found out about its

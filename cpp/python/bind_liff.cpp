@@ -126,8 +126,8 @@ void BindLiFF(py::module_& m) {
                     "Whether firstSlope = -inf and lastSlope = +inf.")
       .def_readonly("automaticReach", &SlopeRangeReport::automaticReach,
                     "Largest |slope| the automatic range considers (docs/SLOPES.md, \"Bound\"); "
-                    "NaN with a hand-set range or no survey (one or two views along the longer "
-                    "axis).")
+                    "at an automatic end; NaN with a hand-set range (both ends finite) or no "
+                    "survey (one or two views along the longer axis).")
       .def_readonly("structureBeyondReach", &SlopeRangeReport::structureBeyondReach,
                     "The survey saw structure at or beyond +-automaticReach (not considered).")
       .def_readonly("surveyFoundNothing", &SlopeRangeReport::surveyFoundNothing,

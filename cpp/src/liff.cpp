@@ -245,7 +245,8 @@ SlopeRangeReport LiFF_Impl::planReport(const Parameters& parameters, const Light
   report.V = lf.V;
   report.U = lf.U;
   report.automaticRange = std::isinf(parameters.firstSlope) && std::isinf(parameters.lastSlope);
-  if (report.automaticRange && detail::surveyed(lf.T, lf.S))
+  // The reach bounds an automatic end, of a half-automatic range too.
+  if (detail::automaticRange(parameters) && detail::surveyed(lf.T, lf.S))
     report.automaticReach = detail::largestSlope(lf.T, lf.S, lf.V, lf.U);
   report.surveyFoundNothing = plan.surveyFoundNothing;
   report.structureBeyondReach = plan.structureBeyondReach;

@@ -298,46 +298,57 @@ double seenCoherence(const LightField& lf, const cv::KeyPoint& kp, double slope,
   std::vector<float> weights;
   std::vector<cv::Point2f> offsets;
   dogPatch(kp, layers, weights, offsets);
-  // The views (of onlyViews) that see the keypoint's centre at its slope.
+  // A sample is valid inside the view and, with alpha, where its weight is at least half
+  // the largest (values are premultiplied: divided by it there).
+  const float floor = 0.5f * float(lf.maxWeight);
+  auto alphaAt = [&](int t, int s, cv::Point2f at) {
+    return lf.weights.empty()
+               ? 1.f
+               : sample(lf.weights[size_t(t) * lf.S + s].ptr<float>(), lf.U, lf.V, at.x, at.y);
+  };
+  auto valid = [&](int t, int s, cv::Point2f at) {
+    return at.x >= 0 && at.y >= 0 && at.x <= lf.U - 1 && at.y <= lf.V - 1 &&
+           (lf.weights.empty() || alphaAt(t, s, at) >= floor);
+  };
+  // The views (of onlyViews) that see the keypoint's centre at its slope, validly.
   const double tc = 0.5 * (lf.T - 1), sc = 0.5 * (lf.S - 1);
   std::vector<std::pair<cv::Point, cv::Point2f>> seeing;  // (s, t), position in the view
   for (int t = 0; t < lf.T; ++t)
     for (int s = 0; s < lf.S; ++s) {
       if (onlyViews && !(*onlyViews)[size_t(t) * lf.S + s]) continue;
-      const float x = float(kp.pt.x - slope * (s - sc)), y = float(kp.pt.y - slope * (t - tc));
-      if (x >= 0 && y >= 0 && x <= lf.U - 1 && y <= lf.V - 1)
-        seeing.emplace_back(cv::Point(s, t), cv::Point2f(x, y));
+      const cv::Point2f at(float(kp.pt.x - slope * (s - sc)), float(kp.pt.y - slope * (t - tc)));
+      if (valid(t, s, at)) seeing.emplace_back(cv::Point(s, t), at);
     }
-  // The patch's samples inside every one of them (the support they all show), the DoG's
+  // The patch's samples valid in every one of them (the support they all show), the DoG's
   // weights there less their mean, so that what part of the patch remains sums to 0
   // and a view's mean brightness does not count as agreement.
   std::vector<float> common;
   std::vector<cv::Point2f> commonOffsets;
   for (size_t q = 0; q < weights.size(); ++q) {
     bool inside = true;
-    for (const auto& view : seeing) {
-      const cv::Point2f at = view.second + offsets[q];
-      inside = inside && at.x >= 0 && at.y >= 0 && at.x <= lf.U - 1 && at.y <= lf.V - 1;
-    }
+    for (const auto& view : seeing)
+      inside = inside && valid(view.first.y, view.first.x, view.second + offsets[q]);
     if (!inside) continue;
     common.push_back(weights[q]);
     commonOffsets.push_back(offsets[q]);
   }
-  if (common.empty()) return -1;
+  if (common.empty() || seeing.size() < 2) return -1;
   double mean = 0;
   for (float w : common) mean += w;
   mean /= double(common.size());
-  for (float& w : common) w = float(w - mean);
   double sum = 0, sumSquares = 0;
-  for (const auto& view : seeing) {
+  for (const auto& [view, position] : seeing) {
     double b = 0;
-    if (!dogResponse(lf, view.first.y, view.first.x, view.second, common, commonOffsets, b))
-      continue;
+    for (size_t q = 0; q < common.size(); ++q) {
+      const cv::Point2f at = position + commonOffsets[q];
+      const float value = sample(lf.view(view.y, view.x), lf.U, lf.V, at.x, at.y);
+      b += (common[q] - mean) * value / alphaAt(view.y, view.x, at);
+    }
     sum += b;
     sumSquares += b * b;
-    ++used;
   }
-  if (used < 2 || !(sumSquares > 0)) return -1;
+  used = int(seeing.size());
+  if (!(sumSquares > 0)) return -1;
   return sum * sum / (used * sumSquares);
 }
 

@@ -45,10 +45,11 @@ double largestSlope(int T, int S, int V, int U);
 double viewCoherence(const LightField& lf, const cv::KeyPoint& keypoint, double slope, int layers);
 
 /// The coherence (as viewCoherence) of the views that see the keypoint's centre at its
-/// slope (of `onlyViews`, T * S flags in LightField layout, where given: the others may
-/// be empty), over the part of the DoG's patch that every one of them shows, its weights
-/// less their mean there (zero sum: brightness alone does not agree); mostly invalid
-/// views (alpha) are left out. `used`: the views summed. -1 with fewer than two, or no
+/// slope, validly (inside the view; with alpha, a weight of at least half the largest),
+/// of `onlyViews` (T * S flags in LightField layout, where given: the others may be
+/// empty), over the part of the DoG's patch valid in every one of them, its weights less
+/// their mean there (zero sum: brightness alone does not agree), premultiplied values
+/// divided by their weight. `used`: the views summed. -1 with fewer than two, or no
 /// common support. How the views that see a feature near a border agree
 /// (view_borders.hpp), and the plane sweep's check of its clusters.
 double seenCoherence(const LightField& lf, const cv::KeyPoint& keypoint, double slope, int layers,

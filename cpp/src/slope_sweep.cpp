@@ -328,7 +328,12 @@ SweptSlopes sweepSlopes(const LightField& lf, double lo, double hi, float minRes
   // it in half steps: a vote's slope is that of its window, and the strongest vote of a
   // small feature lies on its edge, where a quarter pixel of parallax already matters; a
   // repeated pattern's alias is a whole period off at the outermost views.
+  // At least half the views of the row and column must see the point and agree: near a
+  // border, at a large slope, the few that still see it may be those a repeated pattern
+  // matches (every other one at half its period).
   const std::vector<bool> rowAndColumn = sweptViews(lf.T, lf.S);
+  int rowAndColumnViews = 0;
+  for (bool swept : rowAndColumn) rowAndColumnViews += swept;
   auto agreement = [&](long origin) -> Agreement {
     return [&, origin](cv::Point point, int k) {
       const cv::KeyPoint at(cv::Point2f(point), float(2 * kDogSigma));
@@ -336,7 +341,8 @@ SweptSlopes sweepSlopes(const LightField& lf, double lo, double hi, float minRes
         const double m = (double(origin + k) + 0.5 * half) * g;
         int used = 0;
         const double kappa = seenCoherence(lf, at, m, kDogLayers, &rowAndColumn, used);
-        if (used >= 2 && kappa >= minCoherence(used)) return true;
+        if (2 * used >= rowAndColumnViews && used >= 2 && kappa >= minCoherence(used))
+          return true;
       }
       return false;
     };

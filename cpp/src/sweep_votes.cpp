@@ -36,8 +36,11 @@ constexpr int kMinClusterVotes = 16;
 /// ...unless a slope within this many sweep slopes (one pixel of parallax at the farthest
 /// view) counts by its share: such a cluster is that layer's votes spread over slopes.
 constexpr int kClusterLayerGap = 2;
-/// Votes checked for agreement of the views at a slope beyond an end of the range.
+/// Votes checked for agreement of the views at a slope beyond an end of the range, and
+/// how many of them must agree: structure holds several strong votes that agree, a
+/// repeated pattern's alias at most a chance one.
 constexpr int kBeyondChecks = 3;
+constexpr int kBeyondAgreeing = 2;
 /// Rows of cells counted per task.
 constexpr int kCellRowsPerTask = 2;
 
@@ -200,8 +203,9 @@ bool slopeCounts(const VoteCounts& counts, const Clusters& clusters, int k,
 bool structureAt(const VoteCounts& counts, const Clusters& clusters, int k,
                  const Agreement& agree) {
   if (!counts.layer(k) && clusters.votes[k] == 0) return false;
+  int agreeing = 0;
   for (const cv::Point& point : counts.strongestVotes(k, kBeyondChecks))
-    if (agree(point, k)) return true;
+    if (agree(point, k) && ++agreeing == kBeyondAgreeing) return true;
   return false;
 }
 

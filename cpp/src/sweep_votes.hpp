@@ -71,7 +71,7 @@ bool slopeCounts(const VoteCounts& counts, const Clusters& clusters, int k,
                  const Agreement& agree);
 
 /// Whether structure lies at slope k (one swept beyond an end of the range): a layer or
-/// a cluster there whose views agree at one of its kBeyondChecks strongest votes (a
+/// a cluster there whose views agree at two of its kBeyondChecks strongest votes (a
 /// repeated pattern's alias there does not: no warning of structure that is not there).
 bool structureAt(const VoteCounts& counts, const Clusters& clusters, int k,
                  const Agreement& agree);

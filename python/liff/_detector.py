@@ -360,29 +360,29 @@ class LiFF(_core.LiFF):
 
     def _check_range_ends(self, lf: np.ndarray, rows: np.ndarray, masked: bool = False) -> None:
         """The range warnings, from the core's report of the call
-        (:meth:`getSlopeRangeReport`): :meth:`_check_pinned_ends`; with an automatic range
-        whose survey saw structure at or beyond the largest slope it considers, R, that
-        slopes beyond R are not searched; with an automatic range and no feature, that
-        slopes beyond R are not searched
+        (:meth:`getSlopeRangeReport`): where the survey saw structure at or beyond the
+        largest slope an automatic end considers, R (of a half-automatic range too), that
+        slopes beyond R are not searched; :meth:`_check_pinned_ends`; with an automatic
+        range and no feature, that slopes beyond R are not searched
         (docs/SLOPES.md, "Bound"): where R is small (under SMALL_REACH), the views are
         large enough to survey, no mask was given and the light field is not constant;
         and with an automatic range whose survey found nothing in a light field that is
         not constant, that the paper's [-1, 1] was searched ("Nothing found")."""
         report = self.getSlopeRangeReport()
+        T, S, V, U = report.T, report.S, report.V, report.U
+        reach = report.automaticReach  # NaN: no survey, nothing to warn of
+        if report.structureBeyondReach:  # at an automatic end, of a half-automatic range too
+            warnings.warn(f"the automatic slope range considers slopes within +-{reach:.2f} "
+                          f"for {T}x{S} views of {U}x{V} (docs/SLOPES.md, 'Bound'), and its "
+                          f"survey saw structure at or beyond that: features there may be "
+                          f"missed or reported at wrong slopes ({len(rows)} features "
+                          "returned); set firstSlope and lastSlope to search beyond",
+                          SlopeRangeWarning, stacklevel=3)
+            return
         if not report.automaticRange:
             self._check_pinned_ends(report, len(rows))  # a finite end: features pinned there?
             return
         if lf.ndim < 4:  # one view: one slice, no range
-            return
-        T, S, V, U = report.T, report.S, report.V, report.U
-        reach = report.automaticReach  # NaN: no survey, nothing to warn of
-        if report.structureBeyondReach:
-            warnings.warn(f"the automatic slope range considers slopes within +-{reach:.2f} "
-                          f"for {T}x{S} views of {U}x{V} (docs/SLOPES.md, 'Bound'), and its "
-                          f"survey saw structure at or beyond that: features there are "
-                          f"missed or reported at wrong slopes ({len(rows)} features "
-                          "returned); set firstSlope and lastSlope to search beyond",
-                          SlopeRangeWarning, stacklevel=3)
             return
         if not len(rows):
             if reach < SMALL_REACH and min(V, U) >= 64 and not masked and np.ptp(lf) > 0:

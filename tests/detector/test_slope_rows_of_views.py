@@ -163,3 +163,17 @@ def test_a_plane_just_beyond_the_reach_of_a_strip_is_warned_of(slope):
     with pytest.warns(liff.SlopeRangeWarning, match=r"within \+-4\.00 .*wrong slopes"):
         d.detect(lf)
     assert d.getSlopeRangeReport().structureBeyondReach
+
+
+@pytest.mark.parametrize("bounds, slope", [(dict(firstSlope=0.0), 4.5),
+                                           (dict(lastSlope=0.0), -4.6)])
+def test_a_half_automatic_range_warns_of_structure_beyond_its_automatic_end(bounds, slope):
+    """The automatic end of a half-automatic range is bounded by R as well: structure
+    beyond it warns (before: the report said so but no warning came, and 90 features
+    at wrong slopes were returned silently)."""
+    lf = synthetic.textured_plane((1, 9, 128, 256), slope, seed=1)
+    d = liff.LiFF.create(**bounds)
+    with pytest.warns(liff.SlopeRangeWarning, match=r"within \+-4\.00"):
+        d.detect(lf)
+    report = d.getSlopeRangeReport()
+    assert report.structureBeyondReach and report.automaticReach == pytest.approx(4.0)

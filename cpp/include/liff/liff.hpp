@@ -80,16 +80,17 @@ struct SlopeRangeReport {
   int T = 0, S = 0, V = 0, U = 0;
   /// Whether the range was automatic (firstSlope = -inf and lastSlope = +inf).
   bool automaticRange = false;
-  /// Largest |slope| the automatic range considers (docs/SLOPES.md, "Bound": a quarter of
-  /// the view's parallax-axis side over the outermost views' distance, or up to half of it
-  /// to reach the paper's [-1, 1]); NaN with a hand-set range or where the automatic range
-  /// runs no survey (one or two views along the longer axis).
+  /// Largest |slope| the automatic range considers at an automatic end (docs/SLOPES.md,
+  /// "Bound": a quarter of the smaller view side over the outermost views' distance, or up
+  /// to 1 while they differ by half the view); NaN with a hand-set range (both ends finite)
+  /// or where the automatic range runs no survey (one or two views along the longer axis).
   double automaticReach = std::numeric_limits<double>::quiet_NaN();
   /// The automatic range's survey ran and found no structure: the paper's [-1, 1] was
   /// searched.
   bool surveyFoundNothing = false;
-  /// The automatic range's survey saw structure at or beyond +-automaticReach, which it
-  /// does not consider: slopes there are missed or reported at the reach.
+  /// The automatic range's survey saw structure at or beyond +-automaticReach at an
+  /// automatic end, which it does not consider: features there may be missed or reported
+  /// at wrong slopes.
   bool structureBeyondReach = false;
   /// Features the call found before nfeatures' cut (retainBest) and returned after it.
   int featuresFound = 0, featuresReturned = 0;

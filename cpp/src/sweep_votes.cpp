@@ -64,7 +64,11 @@ void Votes::merge(const Votes& later, int indexOffset, int rowBegin, int rowEnd)
   countRows += later.count.rowRange(rows);
   const cv::Mat better = later.best.rowRange(rows) < best.rowRange(rows);
   later.best.rowRange(rows).copyTo(best.rowRange(rows), better);
-  cv::Mat shifted = later.index.rowRange(rows) + indexOffset;
+  if (indexOffset == 0) {
+    later.index.rowRange(rows).copyTo(index.rowRange(rows), better);
+    return;
+  }
+  const cv::Mat shifted = later.index.rowRange(rows) + indexOffset;
   shifted.copyTo(index.rowRange(rows), better);
 }
 

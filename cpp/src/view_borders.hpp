@@ -15,13 +15,12 @@ namespace detail {
 int viewsSeeing(const LightField& lf, cv::Point2f pt, double slope);
 
 /// Drops the features that not every view sees at their slope unless the views that do
-/// see them agree: their coherence over those views (seenCoherence: on the part of the
-/// patch they all show, mostly invalid views left out) at least minCoherence of their
-/// number, two at least. A real
-/// feature near a border is seen alike by the views that see it (coherence near 1); a
-/// ghost there, another slope's structure made sharp by the views that remain, is not
-/// (near 1 / n). Features every view sees are kept untested. `layers`: nOctaveLayers
-/// (the DoG's scale ratio). docs/RESULTS.md, "Features at the views' borders".
+/// see them (validly: alpha) agree: their coherence (seenCoherence, on the samples valid
+/// in all of them) at least minCoherence of their number, two at least. A real feature
+/// near a border is seen alike by the views that see it (coherence near 1); a ghost
+/// there, another slope's structure made sharp by the views that remain, is not (near
+/// 1 / n). Features every view sees are kept untested. `layers`: nOctaveLayers (the
+/// DoG's scale ratio). docs/RESULTS.md, "Features at the views' borders".
 void dropBorderGhosts(const LightField& lf, int layers, Detections& detections);
 
 }  // namespace detail

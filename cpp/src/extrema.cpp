@@ -40,17 +40,19 @@ inline bool beats3x3(float v, bool isMax, const cv::Mat& dog, int r, int c, bool
 
 // Marks the columns of DoG row `row` that pass the cheapest tests: |v| above the
 // pre-threshold and >= (<= for minima) its four horizontal and vertical neighbours
-// (`up`, `down`: the rows above and below). Branch-free, so it vectorises; the full
-// test repeats these comparisons, so the pre-test only saves work.
-LIFF_HOT_LOOP void markCandidates(const float* up, const float* row, const float* down,
-                                  int begin, int end, float threshold, uchar* candidate) {
+// (`up`, `down`: the rows above and below), i.e. >= the largest of them (<= the
+// smallest; DoG values are finite). Branch-free, so it vectorises, in AVX-512 where the
+// CPU has it (comparisons only: every build marks alike); the full test repeats these
+// comparisons, so the pre-test only saves work.
+LIFF_COMPARE_LOOP void markCandidates(const float* up, const float* row, const float* down,
+                                      int begin, int end, float threshold, uchar* candidate) {
   for (int c = begin; c < end; ++c) {
     const float v = row[c], left = row[c - 1], right = row[c + 1], above = up[c],
                 below = down[c];
-    candidate[c] = uchar((v > threshold) & (v >= left) & (v >= right) & (v >= above) &
-                         (v >= below)) |
-                   uchar((v < -threshold) & (v <= left) & (v <= right) & (v <= above) &
-                         (v <= below));
+    const float highest = std::max(std::max(left, right), std::max(above, below));
+    const float lowest = std::min(std::min(left, right), std::min(above, below));
+    candidate[c] =
+        uchar((v > threshold) & (v >= highest)) | uchar((v < -threshold) & (v <= lowest));
   }
 }
 

@@ -65,8 +65,7 @@ constexpr double kTightMemoryShare = 0.8;
 int sliceBatch(const LightField& lf, const detail::MemoryEstimate& need, double limitMB,
                bool& tight) {
   tight = false;
-  int batch = std::max(1, detail::sliceBatchOverride() ? detail::sliceBatchOverride()
-                                                       : cv::getNumThreads());
+  int batch = std::max(1, detail::plannedThreads());
   const bool automatic = limitMB == 0;
   const double limit = automatic ? detail::availableMemoryBytes() : limitMB * kBytesPerMB;
   if (limit <= 0 || std::isinf(limit)) return batch;  // unknown or unlimited

@@ -15,6 +15,10 @@ std::vector<LoopRecord> gLoops;
 std::atomic<int> gBatchOverride{0};
 void setSliceBatchOverride(int batch) { gBatchOverride.store(std::max(0, batch)); }
 int sliceBatchOverride() { return gBatchOverride.load(); }
+int plannedThreads() {
+  const int batch = sliceBatchOverride();
+  return batch > 0 ? batch : cv::getNumThreads();
+}
 
 void addLoopRecord(LoopRecord record) {
   std::lock_guard<std::mutex> lock(gLoopMutex);

@@ -50,6 +50,9 @@ class StageTimer {
 /// call has (results do not depend on it).
 void setSliceBatchOverride(int batch);
 int sliceBatchOverride();
+/// The threads a call splits its work for: cv::getNumThreads(), or the batch override
+/// (above), so that a one-thread profile has the tasks of that many threads.
+int plannedThreads();
 
 /// One parallel loop as profiled: its wall time and each index's time, in seconds.
 /// benchmarks/core_speed.py predicts the speed-up at P threads from these: the time

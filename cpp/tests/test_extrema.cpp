@@ -374,6 +374,26 @@ TEST(FindKeypoints, ExtremumBeatingAll80NeighboursIsFoundAtItsRefinedPositionAnd
   }
 }
 
+// The cheap pre-test (|D| over the threshold, >= its four horizontal and vertical
+// neighbours) lets ties through, as the full test does: a peak whose sample equals one of
+// those neighbours is still found, a maximum and (every DoG negated) a minimum alike.
+TEST(FindKeypoints, ExtremumTyingWithAnyOfItsFourNeighboursIsFoundMaximumOrMinimum) {
+  const cv::Point offsets[] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
+  for (bool minimum : {false, true})
+    for (const cv::Point& d : offsets) {
+      SCOPED_TRACE(testing::Message() << (minimum ? "minimum" : "maximum") << ", tie at " << d);
+      Scene scene;
+      if (minimum)
+        for (ScaleSpace* space : {&scene.below, &scene.here, &scene.above})
+          for (cv::Mat& dog : space->dogs) dog *= -1;
+      const cv::Vec3d p = scene.q.centre;
+      cv::Mat& dog = scene.here.dogs[cvRound(p[2])];
+      const int r = cvRound(p[1]), c = cvRound(p[0]);
+      dog.at<float>(r + d.y, c + d.x) = dog.at<float>(r, c);
+      EXPECT_FALSE(scene.find().empty());
+    }
+}
+
 TEST(FindKeypoints, ExtremumLosingToOneNeighbourInTheSliceAboveOrBelowIsNotFound) {
   for (bool raiseAbove : {true, false}) {
     Scene scene;

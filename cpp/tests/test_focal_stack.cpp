@@ -5,6 +5,7 @@
 //
 // bilinear taps w, only taps inside the view, a = alpha (1 without).
 #include "focal_stack.hpp"
+#include "profile.hpp"
 
 #include <gtest/gtest.h>
 
@@ -219,6 +220,29 @@ TEST(FocalStack, SliceIsTheSameWhateverSlopesItIsRenderedWith) {
   const std::vector<cv::Mat> together = render(lf, slopes);
   for (size_t k = 0; k < slopes.size(); ++k)
     EXPECT_EQ(maxDifference(together[k], render(lf, {slopes[k]})[0]), 0) << slopes[k];
+}
+
+// The rows each task renders follow the threads the call plans for (8 to 32 rows); every
+// split gives the same slices bit for bit, alpha or not (alphaLightField below).
+LightField alphaLightField(int T, int S, int V, int U);
+
+TEST(FocalStack, SliceIsTheSameWhateverTheThreadsItIsSplitFor) {
+  const std::vector<double> slopes{-1.7, -0.35, 0.0, 0.9};
+  for (bool alpha : {false, true}) {
+    const LightField lf =
+        alpha ? alphaLightField(5, 5, 301, 47) : dyadicLightField(5, 5, 301, 47, 7);
+    liff::detail::setSliceBatchOverride(1);  // one thread: 32 rows a task
+    const std::vector<cv::Mat> few = render(lf, slopes);
+    liff::detail::setSliceBatchOverride(64);  // 64 threads: 8 rows a task
+    const std::vector<cv::Mat> many = render(lf, slopes);
+    liff::detail::setSliceBatchOverride(3);  // 25 rows a task, a ragged last one
+    const std::vector<cv::Mat> some = render(lf, slopes);
+    liff::detail::setSliceBatchOverride(0);
+    for (size_t k = 0; k < slopes.size(); ++k) {
+      EXPECT_EQ(maxDifference(few[k], many[k]), 0) << "alpha " << alpha << ", slope " << slopes[k];
+      EXPECT_EQ(maxDifference(few[k], some[k]), 0) << "alpha " << alpha << ", slope " << slopes[k];
+    }
+  }
 }
 
 // --- Alpha: F = sum(a L) / sum(a) ----------------------------------------------------------

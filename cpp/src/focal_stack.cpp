@@ -269,7 +269,9 @@ void renderFocalSlices(const LightField& lf, const std::vector<double>& slopes,
   const int taskRows = rowsPerTask(V), tasks = (V + taskRows - 1) / taskRows;
   parallelFor("focal stack", cv::Range(0, tasks), [&](const cv::Range& range) {
     StageTimer timer(kFocalStack);
-    std::vector<float> rows;  // H_kt for the source rows one task needs
+    // H_kt for the source rows one task needs: kept by the thread from call to call (up
+    // to a few hundred kB), so that a call allocates, and page-faults, nothing here.
+    thread_local std::vector<float> rows;
     std::vector<cv::Mat> weightSums(weighted ? K : 0);  // sum(w) of this task's rows
     std::vector<cv::Mat*> weightOuts;
     for (cv::Mat& sum : weightSums) {

@@ -30,6 +30,10 @@ namespace {
 // work even in the first octave of a small view.
 constexpr int kRowsPerTask = 32;
 
+// Octaves of at most this many rows (two stripes) and this many rows squared of pixels
+// are built a slice at a time, all of them in one task (buildScaleSpaces).
+constexpr int kTailOctaveRows = 2 * kRowsPerTask;
+
 // Runs step(build, rowBegin, rowEnd) over every build's rows [0, rows(build)) in
 // stripes of kRowsPerTask, all in one parallel loop.
 template <class Rows, class Step>
@@ -107,45 +111,73 @@ void buildScaleSpaces(const std::vector<SliceBuild>& builds, int layers, double 
     if (i == layers + 2) return &build.scratch->transient[2];
     return nullptr;
   };
-  for (int o = 0; o < octaves; ++o) {
+  auto allocate = [&](int o, int i) {
     const cv::Size size(baseSize.width >> o, baseSize.height >> o);
-    for (int i = 0; i < layers + 3; ++i) {
-      // Allocate this step's images, then fill them in one parallel loop.
-      for (const SliceBuild& build : builds) {
-        ScaleSpace& space = *build.space;
-        cv::Mat& dst = space.gaussians[size_t(o) * (layers + 3) + i];
-        if (const cv::Mat* buffer = transientSlot(build, i))
-          dst = imageIn(*buffer, size);
-        else
-          dst.create(size, CV_32F);
-        if (i > 0) space.dogs[size_t(o) * (layers + 2) + i - 1].create(size, CV_32F);
-      }
-      forEachStripe(n, [&](int) { return size.height; }, [&](int b, int r0, int r1) {
-        ScaleSpace& space = *builds[b].space;
-        cv::Mat& dst = space.gaussians[size_t(o) * (layers + 3) + i];
-        if (o == 0 && i == 0) {
-          gaussianBlurRows(*base[b], dst, baseX[b], baseY[b], r0, r1);
-        } else if (i == 0) {
-          // Layer `layers` of the previous octave has twice the base sigma: decimate it
-          // (even rows and columns, as cv::resize INTER_NEAREST by 1/2).
-          const cv::Mat& src = space.gaussian(o - 1, layers);
-          for (int y = r0; y < r1; ++y) {
-            const float* in = src.ptr<float>(2 * y);
-            float* out = dst.ptr<float>(y);
-            for (int x = 0; x < size.width; ++x) out[x] = in[2 * x];
-          }
-        } else {
-          cv::Mat& dog = space.dogs[size_t(o) * (layers + 2) + i - 1];
-          gaussianBlurRows(space.gaussian(o, i - 1), dst, increment[i], increment[i], r0, r1,
-                           &dog);
-        }
-      });
+    for (const SliceBuild& build : builds) {
+      ScaleSpace& space = *build.space;
+      cv::Mat& dst = space.gaussians[size_t(o) * (layers + 3) + i];
+      if (const cv::Mat* buffer = transientSlot(build, i))
+        dst = imageIn(*buffer, size);
+      else
+        dst.create(size, CV_32F);
+      if (i > 0) space.dogs[size_t(o) * (layers + 2) + i - 1].create(size, CV_32F);
     }
+  };
+  // Rows [r0, r1) of Gaussian i of octave o of build b (and of the DoG it ends).
+  auto layerRows = [&](int b, int o, int i, int r0, int r1) {
+    ScaleSpace& space = *builds[b].space;
+    cv::Mat& dst = space.gaussians[size_t(o) * (layers + 3) + i];
+    if (o == 0 && i == 0) {
+      gaussianBlurRows(*base[b], dst, baseX[b], baseY[b], r0, r1);
+    } else if (i == 0) {
+      // Layer `layers` of the previous octave has twice the base sigma: decimate it
+      // (even rows and columns, as cv::resize INTER_NEAREST by 1/2).
+      const cv::Mat& src = space.gaussian(o - 1, layers);
+      for (int y = r0; y < r1; ++y) {
+        const float* in = src.ptr<float>(2 * y);
+        float* out = dst.ptr<float>(y);
+        for (int x = 0; x < dst.cols; ++x) out[x] = in[2 * x];
+      }
+    } else {
+      cv::Mat& dog = space.dogs[size_t(o) * (layers + 2) + i - 1];
+      gaussianBlurRows(space.gaussian(o, i - 1), dst, increment[i], increment[i], r0, r1, &dog);
+    }
+  };
+  auto dropTransients = [&](int o) {
     if (detectionOnly)  // keypoints sit in layers [1, layers]; the next octave needs `layers`
       for (const SliceBuild& build : builds)
         for (int i : {0, layers + 1, layers + 2})
           build.space->gaussians[size_t(o) * (layers + 3) + i].release();
+  };
+
+  // Octaves of at least kTailOctaveRows rows: each image one parallel loop over every
+  // slice's row stripes.
+  auto small = [&](int o) {
+    const cv::Size size(baseSize.width >> o, baseSize.height >> o);
+    return size.height <= kTailOctaveRows && size.area() <= kTailOctaveRows * kTailOctaveRows;
+  };
+  int tail = 0;
+  while (tail < octaves && !small(tail)) ++tail;
+  for (int o = 0; o < tail; ++o) {
+    for (int i = 0; i < layers + 3; ++i) {
+      allocate(o, i);
+      forEachStripe(n, [&](int) { return baseSize.height >> o; },
+                    [&](int b, int r0, int r1) { layerRows(b, o, i, r0, r1); });
+    }
+    dropTransients(o);
   }
+  // The smaller octaves, a slice's all in one task: a loop per image would cost more in
+  // starting and joining threads than its work (a few stripes in all).
+  if (tail == octaves) return;
+  for (int o = tail; o < octaves; ++o)
+    for (int i = 0; i < layers + 3; ++i) allocate(o, i);
+  parallelFor("scale space", cv::Range(0, n), [&](const cv::Range& range) {
+    StageTimer timer(kScaleSpace);
+    for (int b = range.start; b < range.end; ++b)
+      for (int o = tail; o < octaves; ++o)  // octave by octave: the scratch serves each in turn
+        for (int i = 0; i < layers + 3; ++i) layerRows(b, o, i, 0, baseSize.height >> o);
+  });
+  for (int o = tail; o < octaves; ++o) dropTransients(o);
 }
 
 void buildScaleSpace(const cv::Mat& slice, int layers, double sigma, int octaves,

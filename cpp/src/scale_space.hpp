@@ -74,10 +74,10 @@ struct SliceBuild {
 /// The slices advance in step: each image of the pyramid is one parallel loop over
 /// every slice's row stripes, so all threads have work whatever the number of slices
 /// (one slice alone included); the small octaves (at most two stripes, 64 rows) are
-/// one loop in all, a slice's all in one task (their work is under 1% of a pyramid; a
-/// loop per image cost more in starting and joining threads). Each row is computed the
-/// same way whatever the split, so the result does not depend on the number of threads
-/// or of slices built at once.
+/// one loop in all, a slice's all in one task (under 1% of a pyramid whose first octave
+/// has 500 rows or more; a loop per image cost more in starting and joining threads).
+/// Each row is computed the same way whatever the split, so the result does not depend
+/// on the number of threads or of slices built at once.
 void buildScaleSpaces(const std::vector<SliceBuild>& builds, int layers, double sigma,
                       int octaves, int firstOctave, cv::Vec2d targetVariance,
                       bool detectionOnly);

@@ -27,8 +27,9 @@ import subprocess
 import sys
 from pathlib import Path
 
+from lightfields import COTTON
+
 HERE = Path(__file__).resolve().parent
-COTTON = HERE.parents[1] / "shared" / "data" / "hci" / "cotton"
 
 _ONE_BUILD = """
 import json, statistics, sys, time

@@ -41,7 +41,6 @@ import statistics
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -49,9 +48,8 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import liff  # noqa: E402
 import liff._core as core  # noqa: E402
-from lightfields import ILLUM_SHAPE, layered_light_field  # noqa: E402
+from lightfields import COTTON, ILLUM_SHAPE, layered_light_field  # noqa: E402
 
-COTTON = Path(__file__).resolve().parents[2] / "shared" / "data" / "hci" / "cotton"
 THREADS = (1, 2, 4, 8, 16, 32)
 
 

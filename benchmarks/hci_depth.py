@@ -27,7 +27,10 @@ from liff.io import read_hci
 from liff.plot import draw_keypoints_by_slope
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-DEFAULT_SCENE = os.path.join(HERE, "..", "..", "shared", "data", "hci", "cotton")
+sys.path.insert(0, HERE)
+from lightfields import COTTON  # noqa: E402
+
+DEFAULT_SCENE = str(COTTON)
 
 
 def truth_at(gt: np.ndarray, points: np.ndarray) -> np.ndarray:

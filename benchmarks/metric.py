@@ -52,9 +52,10 @@ from liff.pose import observations
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+from lightfields import COTTON  # noqa: E402
 from sfm import CONTRAST, CONTRAST_THRESHOLD, NOISE, scene_captures  # noqa: E402  (sfm.py's conditions)
 
-DEFAULT_SCENE = os.path.join(HERE, "..", "..", "shared", "data", "hci", "cotton")
+DEFAULT_SCENE = str(COTTON)
 SIZE_FACTORS = (1.5, 1.25)
 RATIO = 0.8
 CORRECT_PX = 2.0

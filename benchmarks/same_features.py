@@ -20,15 +20,12 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import liff  # noqa: E402
-from lightfields import ILLUM_SHAPE, layered_light_field  # noqa: E402
-
-COTTON = Path(__file__).resolve().parents[2] / "shared" / "data" / "hci" / "cotton"
+from lightfields import COTTON, ILLUM_SHAPE, layered_light_field  # noqa: E402
 
 
 def scenes() -> dict:

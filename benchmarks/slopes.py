@@ -35,10 +35,10 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import liff  # noqa: E402
 from liff import synthetic  # noqa: E402
-from lightfields import layered_light_field  # noqa: E402
+from lightfields import COTTON, layered_light_field  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-DEFAULT_SCENE = os.path.join(HERE, "..", "..", "shared", "data", "hci", "cotton")
+DEFAULT_SCENE = str(COTTON)
 RANGES = ((-4.0, 3.0), (0.5, 2.5), (-0.3, 0.3))
 VIEWS = (3, 5, 9, 15)
 SIZE = 256

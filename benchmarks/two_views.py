@@ -17,9 +17,10 @@ import warnings
 import numpy as np
 
 import liff
+import lightfields
 from liff import synthetic
 
-COTTON = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "hci", "cotton")
+COTTON = str(lightfields.COTTON)
 RANGES = ({}, {"firstSlope": -2, "lastSlope": 2}, {"firstSlope": -8, "lastSlope": 8})
 
 
